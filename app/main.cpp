@@ -1,0 +1,22 @@
+// tagsfm: capture-side 3D reconstruction with coded targets.
+// Each subcommand is in its own *_command.cpp; see command_registry.h.
+#include <spdlog/spdlog.h>
+
+#include <CLI/CLI.hpp>
+
+#include "command_registry.h"
+
+int main(int argc, char** argv) {
+  CLI::App app{"tagsfm: metric 3D reconstruction from AprilTag targets and natural features"};
+  app.require_subcommand(1);
+  app.set_version_flag("--version", "tagsfm 0.1.0");
+  int exit_code = 0;
+  for (const auto& [name, add] : tagsfm::RegisteredCommands()) add(app, exit_code);
+  spdlog::set_pattern("%^%l%$: %v");
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e);
+  }
+  return exit_code;
+}

@@ -1,0 +1,15 @@
+# tagsfm_add_module(NAME DEPENDS dep...)
+# One static library per module directory: public headers in include/,
+# sources in src/ (every .cpp there), so adding a file needs no CMake edit.
+function(tagsfm_add_module name)
+  cmake_parse_arguments(ARG "" "" "DEPENDS;PRIVATE_DEPENDS" ${ARGN})
+  file(GLOB sources CONFIGURE_DEPENDS "${CMAKE_CURRENT_SOURCE_DIR}/src/*.cpp")
+  if(NOT sources)
+    message(STATUS "tagsfm: module ${name} has no sources yet; not built")
+    return()
+  endif()
+  add_library(tagsfm_${name} STATIC ${sources})
+  add_library(tagsfm::${name} ALIAS tagsfm_${name})
+  target_include_directories(tagsfm_${name} PUBLIC "${CMAKE_CURRENT_SOURCE_DIR}/include")
+  target_link_libraries(tagsfm_${name} PUBLIC ${ARG_DEPENDS} PRIVATE ${ARG_PRIVATE_DEPENDS})
+endfunction()
