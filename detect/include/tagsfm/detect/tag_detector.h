@@ -1,0 +1,51 @@
+#pragma once
+// AprilTag targets with sub-pixel corners, on libapriltag.
+// (Interface fixed by the foundation so recon can build against it; the
+// detection work fills in the implementation and may add options.)
+#include <memory>
+#include <string>
+
+#include <opencv2/core.hpp>
+
+#include "tagsfm/core/result.h"
+#include "tagsfm/detect/tag_detection.h"
+
+namespace tagsfm {
+
+enum class CornerRefinement {
+  kNone,         // libapriltag's corners as they come (shifted to OpenCV's convention)
+  kAprilTag,     // libapriltag's own edge refinement
+  kCornerSubPix, // OpenCV cornerSubPix
+  kEdgeLineFit,  // fit the tag's four outer edges, intersect the lines
+};
+
+struct TagDetectorOptions {
+  std::string family = "tag36h11";
+  float quad_decimate = 2.0f;
+  float quad_sigma = 0.0f;    // Gaussian blur (>0) or sharpening (<0) of the segmentation image
+  int threads = 2;
+  bool refine_edges = true;   // libapriltag's refine_edges
+  double decode_sharpening = 0.25;
+  CornerRefinement refinement = CornerRefinement::kEdgeLineFit;
+  double min_decision_margin = 30.0;  // reject weaker decodes
+  int max_hamming = 0;                // reject decodes with more bit errors
+
+  Status Check() const;  // names the wrong field
+};
+
+class TagDetector {
+ public:
+  static Result<std::unique_ptr<TagDetector>> Create(const TagDetectorOptions& options);
+  virtual ~TagDetector() = default;
+
+  // Detects every tag in an 8-bit grey image. An empty or tiny image gives an
+  // empty set; a wrong image type is an error.
+  virtual Result<DetectionSet> Detect(const cv::Mat& gray8, FrameId frame) = 0;
+  const TagDetectorOptions& options() const { return options_; }
+
+ protected:
+  explicit TagDetector(TagDetectorOptions options) : options_(std::move(options)) {}
+  TagDetectorOptions options_;
+};
+
+}  // namespace tagsfm
