@@ -19,6 +19,10 @@ enum class CornerRefinement {
   kEdgeLineFit,  // fit the tag's four outer edges, intersect the lines
 };
 
+// "none", "apriltag", "cornersubpix", "edgelinefit" (the CLI and config names).
+const char* CornerRefinementName(CornerRefinement refinement);
+Result<CornerRefinement> ParseCornerRefinement(const std::string& name);
+
 struct TagDetectorOptions {
   std::string family = "tag36h11";
   float quad_decimate = 2.0f;
@@ -28,7 +32,8 @@ struct TagDetectorOptions {
   double decode_sharpening = 0.25;
   CornerRefinement refinement = CornerRefinement::kEdgeLineFit;
   double min_decision_margin = 30.0;  // reject weaker decodes
-  int max_hamming = 0;                // reject decodes with more bit errors
+  int max_hamming = 0;                // reject decodes with more bit errors (0..2; also
+                                      // the bits libapriltag tries to correct)
 
   Status Check() const;  // names the wrong field
 };
@@ -39,8 +44,14 @@ class TagDetector {
   virtual ~TagDetector() = default;
 
   // Detects every tag in an 8-bit grey image. An empty or tiny image gives an
-  // empty set; a wrong image type is an error.
+  // empty set; a wrong image type is an error. The image may be a view into a
+  // larger one (any row stride): it is read in place, not copied. Tags come
+  // sorted by id. Not safe to call from two threads at once.
   virtual Result<DetectionSet> Detect(const cv::Mat& gray8, FrameId frame) = 0;
+
+  // Modules across the tag's outer (corner-defining) square, e.g. 8 for
+  // tag36h11: corner spacing / this = module size in pixels.
+  virtual int ModulesAcrossCornerSquare() const = 0;
   const TagDetectorOptions& options() const { return options_; }
 
  protected:

@@ -1,0 +1,47 @@
+#pragma once
+// Images of tags whose corners are known exactly, for accuracy tests and
+// benchmarks: each tag's bitmap (libapriltag's own, one white module around
+// the black border) is mapped by a homography, area-averaged over each pixel
+// by supersampling, blurred and noised. Pixel centres at integer coordinates
+// (pixel (x, y) covers [x-0.5, x+0.5] x [y-0.5, y+0.5]), as everywhere in tagsfm.
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "tagsfm/core/result.h"
+#include "tagsfm/detect/corner_refinement.h"
+#include "tagsfm/detect/tag_detection.h"
+
+namespace tagsfm {
+
+// Where a tag lands: its corner square's corners, libapriltag's order.
+struct PlacedTag {
+  TagId id = 0;
+  QuadCorners corners;
+};
+
+struct TagRenderOptions {
+  int supersample = 8;        // samples per pixel along each axis
+  double blur_sigma_px = 0.0;  // Gaussian optical blur
+  double noise_sigma = 0.0;    // Gaussian noise, grey levels
+  double black = 30.0;         // grey levels of the tag's black and white
+  double white = 220.0;
+  double background = 140.0;   // outside the tags' white margins
+  std::uint64_t seed = 1;
+};
+
+// An 8-bit grey image with the tags drawn; ids beyond the family, an unknown
+// family or a bad size are errors.
+Result<cv::Mat> RenderTags(const std::string& family, int width, int height, const std::vector<PlacedTag>& tags,
+                           const TagRenderOptions& options);
+
+// `count` tags of the family (ids 0..count-1) seen in perspective: each a
+// square of about `side_px` pixels, tilted up to `max_tilt_deg` about a random
+// axis in the tag plane and rotated at random in the image, laid on a grid so
+// that they never overlap. Fewer come back when the image is too small.
+std::vector<PlacedTag> RandomTagPlacements(int width, int height, int count, double side_px, double max_tilt_deg,
+                                           std::uint64_t seed);
+
+}  // namespace tagsfm

@@ -1,0 +1,156 @@
+#include "tagsfm/detect/synthetic_tags.h"
+
+#include <algorithm>
+#include <cmath>
+#include <optional>
+#include <random>
+
+#include <Eigen/Geometry>
+#include <Eigen/LU>
+#include <opencv2/imgproc.hpp>
+
+#include "apriltag_family.h"
+
+namespace tagsfm {
+namespace {
+
+struct ImageU8Deleter {
+  void operator()(image_u8_t* image) const { image_u8_destroy(image); }
+};
+
+// The homography mapping the four `from` points onto `to` (exact, in double
+// precision: the truth of the accuracy tests rests on it).
+std::optional<Eigen::Matrix3d> HomographyFrom4(const QuadCorners& from, const QuadCorners& to) {
+  Eigen::Matrix<double, 8, 8> a;
+  Eigen::Matrix<double, 8, 1> b;
+  for (int k = 0; k < 4; ++k) {
+    const double x = from[k].x(), y = from[k].y(), u = to[k].x(), v = to[k].y();
+    a.row(2 * k) << x, y, 1, 0, 0, 0, -u * x, -u * y;
+    a.row(2 * k + 1) << 0, 0, 0, x, y, 1, -v * x, -v * y;
+    b(2 * k) = u;
+    b(2 * k + 1) = v;
+  }
+  Eigen::FullPivLU<Eigen::Matrix<double, 8, 8>> lu(a);
+  if (!lu.isInvertible()) return std::nullopt;
+  const Eigen::Matrix<double, 8, 1> h = lu.solve(b);
+  Eigen::Matrix3d m;
+  m << h(0), h(1), h(2), h(3), h(4), h(5), h(6), h(7), 1.0;
+  return m;
+}
+
+}  // namespace
+
+Result<cv::Mat> RenderTags(const std::string& family_name, int width, int height, const std::vector<PlacedTag>& tags,
+                           const TagRenderOptions& options) {
+  if (width <= 0 || height <= 0) return MakeError("RenderTags: image size must be positive");
+  if (options.supersample < 1) return MakeError("RenderTags: supersample must be >= 1");
+  Result<detail::FamilyPtr> family = detail::CreateAprilTagFamily(family_name);
+  if (!family) return family.error();
+  apriltag_family_t* fam = family->get();
+  const int total = fam->total_width;
+  const double border_start = (fam->total_width - fam->width_at_border) / 2;
+  const double across = fam->width_at_border;
+
+  cv::Mat canvas(height, width, CV_32F, cv::Scalar(options.background));
+  for (const PlacedTag& tag : tags) {
+    if (tag.id < 0 || tag.id >= static_cast<int>(fam->ncodes)) {
+      return MakeError("RenderTags: id " + std::to_string(tag.id) + " not in " + family_name);
+    }
+    std::unique_ptr<image_u8_t, ImageU8Deleter> bitmap(apriltag_to_image(fam, tag.id));
+    // Corner-square coordinates (modules, x right, y down, origin at the
+    // square's top-left) of libapriltag's corners 0..3: bottom-left,
+    // bottom-right, top-right, top-left.
+    const QuadCorners square{Eigen::Vector2d(0, across), Eigen::Vector2d(across, across),
+                             Eigen::Vector2d(across, 0), Eigen::Vector2d(0, 0)};
+    const std::optional<Eigen::Matrix3d> homography = HomographyFrom4(square, tag.corners);
+    if (!homography) return MakeError("RenderTags: degenerate corners for tag " + std::to_string(tag.id));
+    const Eigen::Matrix3d& h = *homography;
+    const Eigen::Matrix3d square_from_image = h.inverse();
+
+    // Pixels the bitmap (with its white margin) can touch.
+    double x_min = 1e9, x_max = -1e9, y_min = 1e9, y_max = -1e9;
+    for (double u : {-border_start, total - border_start}) {
+      for (double v : {-border_start, total - border_start}) {
+        const Eigen::Vector3d p = h * Eigen::Vector3d(u, v, 1.0);
+        x_min = std::min(x_min, p.x() / p.z());
+        x_max = std::max(x_max, p.x() / p.z());
+        y_min = std::min(y_min, p.y() / p.z());
+        y_max = std::max(y_max, p.y() / p.z());
+      }
+    }
+    const int x0 = std::max(0, static_cast<int>(std::floor(x_min)) - 1);
+    const int x1 = std::min(width - 1, static_cast<int>(std::ceil(x_max)) + 1);
+    const int y0 = std::max(0, static_cast<int>(std::floor(y_min)) - 1);
+    const int y1 = std::min(height - 1, static_cast<int>(std::ceil(y_max)) + 1);
+    const int s = options.supersample;
+    for (int y = y0; y <= y1; ++y) {
+      float* row = canvas.ptr<float>(y);
+      for (int x = x0; x <= x1; ++x) {
+        double sum = 0.0;
+        int covered = 0;
+        for (int sy = 0; sy < s; ++sy) {
+          for (int sx = 0; sx < s; ++sx) {
+            const Eigen::Vector3d q = square_from_image * Eigen::Vector3d(x - 0.5 + (sx + 0.5) / s, y - 0.5 + (sy + 0.5) / s, 1.0);
+            const double bx = q.x() / q.z() + border_start;
+            const double by = q.y() / q.z() + border_start;
+            if (bx < 0 || by < 0 || bx >= total || by >= total) continue;
+            const uint8_t bit = bitmap->buf[static_cast<int>(by) * bitmap->stride + static_cast<int>(bx)];
+            sum += bit != 0 ? options.white : options.black;
+            ++covered;
+          }
+        }
+        if (covered > 0) row[x] = static_cast<float>((sum + (s * s - covered) * row[x]) / (s * s));
+      }
+    }
+  }
+  if (options.blur_sigma_px > 0.0) cv::GaussianBlur(canvas, canvas, cv::Size(0, 0), options.blur_sigma_px, 0.0, cv::BORDER_REFLECT);
+  if (options.noise_sigma > 0.0) {
+    std::mt19937_64 rng(options.seed);
+    std::normal_distribution<float> noise(0.0f, static_cast<float>(options.noise_sigma));
+    for (int y = 0; y < height; ++y) {
+      float* row = canvas.ptr<float>(y);
+      for (int x = 0; x < width; ++x) row[x] += noise(rng);
+    }
+  }
+  cv::Mat image;
+  canvas.convertTo(image, CV_8U);  // rounds and saturates
+  return image;
+}
+
+std::vector<PlacedTag> RandomTagPlacements(int width, int height, int count, double side_px, double max_tilt_deg,
+                                           std::uint64_t seed) {
+  std::mt19937_64 rng(seed);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  // Grid cells of 2.2 tag sides leave room for tilt, margins and jitter.
+  const double cell = 2.2 * side_px;
+  const int columns = static_cast<int>((width - side_px) / cell);
+  const int rows = static_cast<int>((height - side_px) / cell);
+  std::vector<PlacedTag> placed;
+  const double focal = 1000.0;  // a moderate perspective, like a 60 degree lens
+  for (int i = 0; i < count && i < columns * rows; ++i) {
+    const double cx = side_px / 2 + cell * (i % columns + 0.5) + (unit(rng) - 0.5) * 0.3 * side_px;
+    const double cy = side_px / 2 + cell * (i / columns + 0.5) + (unit(rng) - 0.5) * 0.3 * side_px;
+    const double tilt = max_tilt_deg * M_PI / 180.0 * unit(rng);
+    const double tilt_axis = 2.0 * M_PI * unit(rng);
+    const double spin = 2.0 * M_PI * unit(rng);
+    const Eigen::Matrix3d rotation =
+        (Eigen::AngleAxisd(spin, Eigen::Vector3d::UnitZ()) *
+         Eigen::AngleAxisd(tilt, Eigen::Vector3d(std::cos(tilt_axis), std::sin(tilt_axis), 0.0)))
+            .toRotationMatrix();
+    // A tag of side `side_px`/focal metres at 1 m, centred on the optical axis
+    // through (cx, cy); corners in libapriltag's order (y down).
+    const double half = 0.5 * side_px / focal;
+    const std::array<Eigen::Vector3d, 4> in_tag{Eigen::Vector3d(-half, half, 0), Eigen::Vector3d(half, half, 0),
+                                                Eigen::Vector3d(half, -half, 0), Eigen::Vector3d(-half, -half, 0)};
+    PlacedTag tag;
+    tag.id = i;
+    for (int k = 0; k < 4; ++k) {
+      const Eigen::Vector3d p = rotation * in_tag[k] + Eigen::Vector3d(0, 0, 1.0);
+      tag.corners[k] = Eigen::Vector2d(cx + focal * p.x() / p.z(), cy + focal * p.y() / p.z());
+    }
+    placed.push_back(tag);
+  }
+  return placed;
+}
+
+}  // namespace tagsfm

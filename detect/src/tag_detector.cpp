@@ -1,0 +1,129 @@
+// TagDetector on libapriltag 3.3.
+#include "tagsfm/detect/tag_detector.h"
+
+#include <algorithm>
+#include <memory>
+
+#include <apriltag/apriltag.h>
+
+#include "apriltag_family.h"
+#include "tagsfm/detect/corner_refinement.h"
+
+namespace tagsfm {
+namespace {
+
+// libapriltag puts pixel centres at .5 (pixel i covers [i, i+1)), OpenCV and
+// tagsfm at integers (pixel i covers [i-0.5, i+0.5)): subtract half a pixel.
+// Measured against exactly rendered tags (tests/detect/corner_accuracy_test):
+// no further offset (such as the 0.125 px reported upstream) remains at
+// quad_decimate 1 or 2.
+constexpr double kAprilTagToOpenCvShift = -0.5;
+
+struct DetectorDeleter {
+  void operator()(apriltag_detector_t* detector) const { apriltag_detector_destroy(detector); }
+};
+struct DetectionsDeleter {
+  void operator()(zarray_t* detections) const { apriltag_detections_destroy(detections); }
+};
+
+class AprilTagDetector final : public TagDetector {
+ public:
+  AprilTagDetector(TagDetectorOptions options, detail::FamilyPtr family)
+      : TagDetector(std::move(options)), family_(std::move(family)), detector_(apriltag_detector_create()) {
+    apriltag_detector_t* td = detector_.get();
+    td->nthreads = options_.threads;
+    td->quad_decimate = options_.quad_decimate;
+    td->quad_sigma = options_.quad_sigma;
+    td->refine_edges = options_.refine_edges || options_.refinement == CornerRefinement::kAprilTag;
+    td->decode_sharpening = options_.decode_sharpening;
+    apriltag_detector_add_family_bits(td, family_.get(), options_.max_hamming);
+  }
+
+  ~AprilTagDetector() override {
+    // The detector refers to the family: destroy it first.
+    detector_.reset();
+  }
+
+  int ModulesAcrossCornerSquare() const override { return family_->width_at_border; }
+
+  Result<DetectionSet> Detect(const cv::Mat& gray8, FrameId frame) override {
+    DetectionSet result;
+    result.frame = frame;
+    if (gray8.empty()) return result;
+    if (gray8.depth() != CV_8U || gray8.channels() != 1) {
+      return MakeError("frame " + std::to_string(frame) + ": tag detection needs an 8-bit single-channel image (got " +
+                       std::to_string(gray8.channels()) + " channel(s) of depth " + DepthName(gray8.depth()) + ")");
+    }
+    if (gray8.dims != 2) return MakeError("frame " + std::to_string(frame) + ": image is not 2-D");
+    // No tag fits in fewer pixels than its modules.
+    if (gray8.rows < family_->total_width || gray8.cols < family_->total_width) return result;
+
+    // A view of the caller's pixels, row stride included: no copy.
+    // libapriltag only reads the input image (it blurs/decimates copies).
+    image_u8_t image{gray8.cols, gray8.rows, static_cast<int32_t>(gray8.step[0]), const_cast<uint8_t*>(gray8.data)};
+    std::unique_ptr<zarray_t, DetectionsDeleter> detections(apriltag_detector_detect(detector_.get(), &image));
+    if (!detections) return MakeError("frame " + std::to_string(frame) + ": libapriltag failed");
+
+    for (int i = 0; i < zarray_size(detections.get()); ++i) {
+      apriltag_detection_t* det = nullptr;
+      zarray_get(detections.get(), i, &det);
+      if (det->hamming > options_.max_hamming || det->decision_margin < options_.min_decision_margin) continue;
+      TagDetection tag;
+      tag.id = det->id;
+      tag.hamming = det->hamming;
+      tag.decision_margin = det->decision_margin;
+      for (int k = 0; k < 4; ++k) {
+        tag.corners[k] = Eigen::Vector2d(det->p[k][0] + kAprilTagToOpenCvShift, det->p[k][1] + kAprilTagToOpenCvShift);
+      }
+      Refine(gray8, &tag);
+      result.tags.push_back(tag);
+    }
+    std::sort(result.tags.begin(), result.tags.end(),
+              [](const TagDetection& a, const TagDetection& b) { return a.id < b.id; });
+    return result;
+  }
+
+ private:
+  static std::string DepthName(int depth) {
+    switch (depth) {
+      case CV_8U: return "8U";
+      case CV_8S: return "8S";
+      case CV_16U: return "16U";
+      case CV_16S: return "16S";
+      case CV_32S: return "32S";
+      case CV_32F: return "32F";
+      case CV_64F: return "64F";
+      default: return std::to_string(depth);
+    }
+  }
+
+  // A failed refinement keeps libapriltag's corners: a tag is never lost to it.
+  void Refine(const cv::Mat& gray8, TagDetection* tag) const {
+    switch (options_.refinement) {
+      case CornerRefinement::kNone:
+      case CornerRefinement::kAprilTag:
+        return;
+      case CornerRefinement::kCornerSubPix:
+        RefineCornersBySubPix(gray8, family_->width_at_border, &tag->corners);
+        return;
+      case CornerRefinement::kEdgeLineFit:
+        RefineCornersByEdgeLines(gray8, family_->width_at_border, &tag->corners);
+        return;
+    }
+  }
+
+  detail::FamilyPtr family_;
+  std::unique_ptr<apriltag_detector_t, DetectorDeleter> detector_;
+};
+
+}  // namespace
+
+Result<std::unique_ptr<TagDetector>> TagDetector::Create(const TagDetectorOptions& options) {
+  if (Status status = options.Check(); !status) return status.error();
+  Result<detail::FamilyPtr> family = detail::CreateAprilTagFamily(options.family);
+  if (!family) return family.error();
+  std::unique_ptr<TagDetector> detector = std::make_unique<AprilTagDetector>(options, std::move(*family));
+  return detector;
+}
+
+}  // namespace tagsfm
