@@ -3,16 +3,30 @@
 namespace tagsfm {
 
 Result<std::unique_ptr<FrameSource>> OpenFileFrameSource(const std::string& uri, const std::string& spec);
+Result<std::unique_ptr<FrameSource>> OpenV4l2FrameSource(const std::string& device, const CaptureSettings& settings);
 
-Result<std::unique_ptr<FrameSource>> OpenFrameSource(const std::string& uri) {
+Result<std::unique_ptr<FrameSource>> OpenFrameSource(const CaptureSettings& settings) {
+  if (Status s = settings.Check(); !s) return s.error();
+  const std::string& uri = settings.source;
   const size_t colon = uri.find(':');
-  if (colon == std::string::npos) {
-    return MakeError("camera source '" + uri + "': expected a URI such as file:REC, v4l2:/dev/video0 or libcamera:0");
-  }
   const std::string scheme = uri.substr(0, colon);
   const std::string spec = uri.substr(colon + 1);
   if (scheme == "file") return OpenFileFrameSource(uri, spec);
-  return MakeError("camera source '" + uri + "': scheme '" + scheme + "' is not supported yet (supported: file)");
+  if (scheme == "v4l2") return OpenV4l2FrameSource(spec, settings);
+  if (scheme == "libcamera") {
+    return MakeError("camera source '" + uri +
+                     "': libcamera cameras are not supported yet; many expose a V4L2 node too (try v4l2:/dev/videoN)");
+  }
+  return MakeError("camera source '" + uri + "': unknown scheme '" + scheme + "' (known: file, v4l2)");
+}
+
+Result<std::unique_ptr<FrameSource>> OpenFrameSource(const std::string& uri) {
+  if (uri.find(':') == std::string::npos) {
+    return MakeError("camera source '" + uri + "': expected a URI such as file:REC, v4l2:/dev/video0 or libcamera:0");
+  }
+  CaptureSettings settings;
+  settings.source = uri;
+  return OpenFrameSource(settings);
 }
 
 }  // namespace tagsfm

@@ -6,7 +6,9 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <vector>
 
+#include "tagsfm/capture/capture_settings.h"
 #include "tagsfm/capture/frame.h"
 #include "tagsfm/capture/recording.h"
 
@@ -21,8 +23,14 @@ class FrameSource {
   // The camera and targets when the source knows them (a recording does).
   virtual const RecordingInfo& info() const = 0;
   virtual std::string uri() const = 0;
+  // Things the source could not do as asked but can work without (e.g. a
+  // camera control the driver lacks); returned once, then cleared.
+  virtual std::vector<std::string> TakeWarnings() { return {}; }
 };
 
 Result<std::unique_ptr<FrameSource>> OpenFrameSource(const std::string& uri);
+// A camera with the given settings (settings.source names it); a recording
+// URI ignores the camera settings.
+Result<std::unique_ptr<FrameSource>> OpenFrameSource(const CaptureSettings& settings);
 
 }  // namespace tagsfm
