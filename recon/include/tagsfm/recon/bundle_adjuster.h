@@ -1,0 +1,81 @@
+#pragma once
+// Bundle adjustment of target corners (Ceres): a sliding window over the
+// last keyframes while frames arrive, and one global adjustment at the end.
+// Learned tags are rigid squares of known size (pose parameters, size
+// constant); known-map tags are held fixed; the anchor tag, which defines the
+// world when there is no map, is held fixed too.
+#include <deque>
+#include <map>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "tagsfm/core/result.h"
+#include "tagsfm/recon/reconstruction.h"
+
+namespace ceres {
+class Problem;
+}
+
+namespace tagsfm {
+
+struct BundleAdjusterOptions {
+  int window_keyframes = 8;       // K: keyframes in the sliding window
+  int window_iterations = 6;      // LM iterations per window solve (bounds per-frame time)
+  int global_iterations = 100;
+  double huber_px = 1.0;          // robust loss scale
+  int global_threads = 2;
+  bool compute_covariance = true; // of the learned tags, after the global adjustment
+
+  Status Check() const;
+};
+
+class SlidingWindowBundleAdjuster {
+ public:
+  SlidingWindowBundleAdjuster(const BundleAdjusterOptions& options, double fx, double fy);
+  ~SlidingWindowBundleAdjuster();
+  SlidingWindowBundleAdjuster(const SlidingWindowBundleAdjuster&) = delete;
+  SlidingWindowBundleAdjuster& operator=(const SlidingWindowBundleAdjuster&) = delete;
+
+  // Adds a registered keyframe with a residual for each corner of each mapped
+  // tag it sees; the oldest keyframe leaves when the window is full. `frame`
+  // and `tags` must outlive the adjuster (their parameters are optimised in place).
+  void AddKeyframe(FrameState* frame, std::map<TagId, MapTag>* tags);
+  // A tag just put into the map: adds the window keyframes' observations of it.
+  void AddTag(MapTag* tag);
+  // Solves the window (a few LM iterations). Skipped, returning false, when
+  // no tag in the window is free (poses alone are what PnP already refined).
+  bool Solve();
+  size_t keyframes() const { return window_.size(); }
+  size_t residual_blocks() const;
+
+ private:
+  void AddObservation(FrameState* frame, const TagObservation& obs, MapTag* tag);
+  void RemoveOldest();
+  void HoldOldestFixed();
+
+  BundleAdjusterOptions options_;
+  double fx_, fy_;
+  std::unique_ptr<ceres::Problem> problem_;
+  std::deque<FrameState*> window_;
+  std::map<TagId, MapTag*> tags_in_problem_;
+  std::map<TagId, int> residuals_per_tag_;
+  std::map<const FrameState*, std::vector<TagId>> tags_per_frame_;
+  std::map<TagId, MapTag>* map_ = nullptr;
+  const FrameState* fixed_frame_ = nullptr;
+};
+
+struct GlobalAdjustmentSummary {
+  bool converged = false;
+  int iterations = 0;
+  double initial_rms_px = 0, final_rms_px = 0;
+  std::optional<TagCovariance> covariance;
+  std::string covariance_note;
+};
+
+// Adjusts every registered frame's pose and every learned tag together.
+GlobalAdjustmentSummary AdjustGlobally(const std::vector<FrameState*>& frames, std::map<TagId, MapTag>* tags,
+                                       double fx, double fy, const BundleAdjusterOptions& options);
+
+}  // namespace tagsfm

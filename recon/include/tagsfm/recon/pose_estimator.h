@@ -1,0 +1,67 @@
+#pragma once
+// The camera pose of one frame from 2D-3D correspondences of target corners:
+// EPnP inside RANSAC (the paper's choice), then a robust Levenberg-Marquardt
+// refinement. Every pose is checked (reprojection RMS, cheirality, agreement
+// with the previous frame); when EPnP's fails, or the points are nearly
+// coplanar (where EPnP + LM was measured to land 25-40 degrees off), SQPnP and
+// IPPE are tried too and the best checked pose wins. Degenerate input gives an
+// unregistered result with a reason, never a wild pose.
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "tagsfm/core/result.h"
+#include "tagsfm/core/rigid3d.h"
+
+namespace tagsfm {
+
+enum class PoseMethod { kNone, kEpnp, kSqpnp, kIppe };
+const char* PoseMethodName(PoseMethod method);
+
+struct PoseEstimatorOptions {
+  double ransac_threshold_px = 4.0;   // inlier threshold of RANSAC and the final inlier set
+  int ransac_iterations = 200;
+  double ransac_confidence = 0.999;
+  double max_rms_px = 2.0;            // a checked pose reprojects its inliers within this RMS
+  double min_inlier_ratio = 0.5;      // of the correspondences given
+  // Agreement with the previous frame: a pose that rotated more than this
+  // loses to a candidate that did not (when both pass the other checks).
+  double max_rotation_jump_deg = 30.0;
+  // Points whose spread's smallest axis is below this fraction of the largest
+  // count as nearly coplanar: SQPnP and IPPE are consulted as well.
+  double planarity_ratio = 0.1;
+  double huber_px = 1.0;              // robust loss of the refinement
+  int refine_iterations = 20;
+
+  Status Check() const;
+};
+
+struct PoseResult {
+  bool registered = false;
+  std::string reason;               // why not, when not registered
+  Rigid3d cam_from_world;
+  std::vector<int> inliers;         // indices into the correspondences
+  double rms_px = 0.0;              // over the inliers
+  PoseMethod method = PoseMethod::kNone;
+  bool fell_back = false;           // EPnP's pose failed a check and another solver's was taken
+};
+
+// points_in_world[i] is seen at normalized[i] (undistorted normalised image
+// coordinates, CameraModel::PixelsToNormalized). fx, fy convert normalised
+// errors to pixels. `previous` is the last registered frame's pose, if any.
+PoseResult EstimatePose(const std::vector<Eigen::Vector3d>& points_in_world,
+                        const std::vector<Eigen::Vector2d>& normalized, double fx, double fy,
+                        const std::optional<Rigid3d>& previous, const PoseEstimatorOptions& options);
+
+// Refines a pose on fixed points with a Huber loss (LM); returns the refined pose.
+Rigid3d RefinePose(const std::vector<Eigen::Vector3d>& points_in_world, const std::vector<Eigen::Vector2d>& normalized,
+                   const std::vector<int>& use, double fx, double fy, const Rigid3d& initial, double huber_px,
+                   int max_iterations);
+
+// Both IPPE solutions (planar pose ambiguity) of cam_from_tag for a square
+// tag's four corners seen at `normalized`, best first. Empty on failure.
+std::vector<Rigid3d> TagPoseCandidates(const std::array<Eigen::Vector2d, 4>& normalized, double size_m);
+
+}  // namespace tagsfm

@@ -1,0 +1,96 @@
+#pragma once
+// The state a reconstruction is made of, as plain values: frames with their
+// tag observations and poses, and the target map (tags as rigid squares of
+// known size, or corners held fixed from a known map).
+#include <array>
+#include <map>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "tagsfm/core/camera_model.h"
+#include "tagsfm/core/csv_formats.h"
+#include "tagsfm/recon/pose_estimator.h"
+#include "tagsfm/recon/pose_params.h"
+
+namespace tagsfm {
+
+// One tag seen in one frame: its corners in pixels (distorted, as detected)
+// and undistorted to normalised image coordinates.
+struct TagObservation {
+  TagId id = -1;
+  std::array<Eigen::Vector2d, 4> pixels{Eigen::Vector2d::Zero(), Eigen::Vector2d::Zero(), Eigen::Vector2d::Zero(),
+                                        Eigen::Vector2d::Zero()};
+  std::array<Eigen::Vector2d, 4> normalized{Eigen::Vector2d::Zero(), Eigen::Vector2d::Zero(),
+                                            Eigen::Vector2d::Zero(), Eigen::Vector2d::Zero()};
+};
+
+struct FrameState {
+  FrameId frame = 0;
+  std::vector<TagObservation> tags;
+  bool registered = false;
+  bool keyframe = false;
+  PoseMethod method = PoseMethod::kNone;
+  bool fell_back = false;
+  std::string reason;          // why unregistered
+  double pnp_rms_px = 0;
+  PoseParams cam_from_world;   // valid when registered
+
+  const TagObservation* Find(TagId id) const {
+    for (const auto& t : tags) {
+      if (t.id == id) return &t;
+    }
+    return nullptr;
+  }
+};
+
+// A target of the map. A known tag keeps the corners of the given map, held
+// fixed; a learned tag is a pose plus its known size.
+struct MapTag {
+  TagId id = -1;
+  double size_m = 0;
+  bool known = false;
+  bool anchor = false;         // learned, but held fixed: it defines the world frame
+  TagCorners known_corners{Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()};
+  PoseParams world_from_tag;
+
+  TagCorners CornersInWorld() const;
+};
+
+// Joint covariance of the learned tags' poses after the final adjustment, in
+// the tangent space of world_from_tag: per tag [rotation (3, a small
+// rotation applied on the left, world frame), translation (3)], in the
+// order of `ids`. Scaled by the residuals' estimated variance (a posteriori).
+struct TagCovariance {
+  std::vector<TagId> ids;
+  Eigen::MatrixXd covariance;  // 6 * ids.size() square
+};
+
+// Per-target figures of the result.
+struct TargetStats {
+  int track_length = 0;        // frames that saw the tag
+  double rms_px = 0;           // its corners' reprojection RMS over those frames
+  bool known = false;
+};
+
+// What a finished reconstruction hands to the writers.
+struct ReconstructionResult {
+  CameraModel camera;
+  std::vector<FrameState> frames;            // every frame given, registered or not
+  std::map<TagId, MapTag> tags;
+  std::map<TagId, TargetStats> target_stats;
+  std::optional<TagCovariance> covariance;
+  std::string covariance_note;               // why absent, when absent
+  double reprojection_rms_px = 0;            // all observations of mapped tags in registered frames
+  int observations = 0;
+  std::map<std::string, int> pose_method_counts;  // "epnp", "sqpnp", "ippe", "fallback", ...
+  std::optional<TagId> anchor_tag;           // the tag that fixes the world frame (no known map)
+  bool global_adjustment_converged = false;
+
+  PoseMap Poses() const;
+  TargetCornerMap Targets() const;
+};
+
+}  // namespace tagsfm

@@ -1,0 +1,106 @@
+#pragma once
+// The per-frame photogrammetry engine on targets (the paper's stages 2, 3
+// and 5): AddFrame takes one frame's tag detections and returns that frame's
+// pose (or why it has none); Finish runs the final global adjustment and
+// hands back the whole result. No I/O inside: `replay` and the live daemon
+// both drive it with plain values.
+#include <deque>
+#include <map>
+#include <memory>
+#include <optional>
+#include <vector>
+
+#include "tagsfm/capture/recording.h"
+#include "tagsfm/detect/tag_detection.h"
+#include "tagsfm/recon/bundle_adjuster.h"
+#include "tagsfm/recon/pose_estimator.h"
+#include "tagsfm/recon/reconstruction.h"
+
+namespace tagsfm {
+
+struct ReconstructorOptions {
+  PoseEstimatorOptions pose;
+  BundleAdjusterOptions ba;
+  // A new tag enters the map once two of its views differ by this angle
+  // (the planar ambiguity and its depth are then decided), or after
+  // max_pending_views views whatever their angle.
+  double min_tag_view_angle_deg = 3.0;
+  int max_pending_views = 8;
+  double max_tag_init_rms_px = 2.0;
+  // Without a map: frames kept while waiting for two views that share two
+  // tags from this angle apart; after that many, one view starts the map.
+  int bootstrap_max_frames = 10;
+  double bootstrap_min_angle_deg = 3.0;
+  // A registered frame becomes a keyframe when it moved this fraction of
+  // the tags' median depth, turned this much, or mapped a new tag.
+  double keyframe_min_translation_ratio = 0.05;
+  double keyframe_min_rotation_deg = 5.0;
+  bool final_adjustment = true;
+
+  Status Check() const;
+};
+
+struct FrameReport {
+  FrameId frame = 0;
+  bool registered = false;
+  std::string reason;
+  Rigid3d cam_from_world;
+  PoseMethod method = PoseMethod::kNone;
+  bool fell_back = false;
+  double rms_px = 0;
+  int tags_seen = 0;
+  int tags_used = 0;      // mapped tags the pose was computed from
+  int tags_added = 0;     // tags this frame put into the map
+  bool keyframe = false;
+  size_t mapped_tags = 0;
+};
+
+class Reconstructor {
+ public:
+  // `known_map`: targets held fixed (a photogrammetry system's output); tags
+  // outside it are learned as without a map.
+  static Result<std::unique_ptr<Reconstructor>> Create(const CameraModel& camera, const TargetConfig& targets,
+                                                      const std::optional<TargetCornerMap>& known_map,
+                                                      const ReconstructorOptions& options);
+  ~Reconstructor();
+  Reconstructor(const Reconstructor&) = delete;
+  Reconstructor& operator=(const Reconstructor&) = delete;
+
+  FrameReport AddFrame(const DetectionSet& detections);
+  // Registers what can still be registered against the final map, adjusts
+  // everything together and returns the result. Call once.
+  ReconstructionResult Finish();
+
+  size_t mapped_tags() const { return tags_.size(); }
+  size_t frames() const { return frames_.size(); }
+
+ private:
+  Reconstructor(const CameraModel& camera, const TargetConfig& targets, const ReconstructorOptions& options);
+  FrameState& MakeFrameState(const DetectionSet& detections);
+  bool TryBootstrap(FrameState& frame);
+  void StartMapFromOneView(FrameState& frame);
+  void RegisterBuffered(const FrameState* except);
+  // Pose from the mapped tags it sees, then map new tags and adjust.
+  void Register(FrameState& frame, bool adjust, FrameReport* report);
+  int MapPendingTags(FrameState& frame, std::vector<TagId>* added);
+  bool IsKeyframe(const FrameState& frame, bool added_tags) const;
+  std::optional<Rigid3d> PreviousPose(const FrameState& frame) const;
+  void CountMethod(const FrameState& frame);
+
+  CameraModel camera_;
+  TargetConfig targets_;
+  ReconstructorOptions options_;
+  double fx_, fy_;
+  std::deque<FrameState> frames_;                 // stable addresses: the adjuster points into them
+  std::map<TagId, MapTag> tags_;
+  std::map<TagId, std::vector<FrameState*>> pending_;  // unmapped tags' registered views
+  std::vector<FrameState*> bootstrap_buffer_;
+  bool started_ = false;                          // the map exists (known, or bootstrapped)
+  std::optional<TagId> anchor_;
+  const FrameState* last_registered_ = nullptr;
+  const FrameState* last_keyframe_ = nullptr;
+  std::unique_ptr<SlidingWindowBundleAdjuster> window_;
+  std::map<std::string, int> method_counts_;
+};
+
+}  // namespace tagsfm

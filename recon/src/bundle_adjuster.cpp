@@ -1,0 +1,260 @@
+#include "tagsfm/recon/bundle_adjuster.h"
+
+#include <cmath>
+
+#include <ceres/ceres.h>
+
+#include "tagsfm/recon/cost_functions.h"
+#include "tagsfm/recon/tag_geometry.h"
+
+namespace tagsfm {
+namespace {
+
+ceres::Problem::Options ProblemOptions() {
+  ceres::Problem::Options options;
+  options.enable_fast_removal = true;
+  options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  options.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  return options;
+}
+
+ceres::HuberLoss* SharedLoss(double huber_px) {
+  // One loss object per scale, shared by every residual (the problems do not own it).
+  static thread_local std::map<double, std::unique_ptr<ceres::HuberLoss>> losses;
+  auto& loss = losses[huber_px];
+  if (!loss) loss = std::make_unique<ceres::HuberLoss>(huber_px);
+  return loss.get();
+}
+
+ceres::Manifold* QuaternionManifold() {
+  static ceres::EigenQuaternionManifold manifold;
+  return &manifold;
+}
+
+void AddPoseBlocks(ceres::Problem* problem, PoseParams* pose) {
+  problem->AddParameterBlock(pose->q, 4, QuaternionManifold());
+  problem->AddParameterBlock(pose->t, 3);
+}
+
+// Adds the four corner residuals of one observation; returns how many.
+int AddTagResiduals(ceres::Problem* problem, FrameState* frame, const TagObservation& obs, MapTag* tag, double fx,
+                    double fy, ceres::LossFunction* loss) {
+  if (tag->known) {
+    for (int k = 0; k < 4; ++k) {
+      problem->AddResidualBlock(FixedPointReprojectionError::Create(obs.normalized[k], tag->known_corners[k], fx, fy),
+                                loss, frame->cam_from_world.q, frame->cam_from_world.t);
+    }
+  } else {
+    for (int k = 0; k < 4; ++k) {
+      problem->AddResidualBlock(
+          TagCornerReprojectionError::Create(obs.normalized[k], TagCornerInTag(k, tag->size_m), fx, fy), loss,
+          frame->cam_from_world.q, frame->cam_from_world.t, tag->world_from_tag.q, tag->world_from_tag.t);
+    }
+  }
+  return 4;
+}
+
+}  // namespace
+
+Status BundleAdjusterOptions::Check() const {
+  if (window_keyframes < 2) return MakeError("ba.window_keyframes must be >= 2");
+  if (window_iterations < 1) return MakeError("ba.window_iterations must be >= 1");
+  if (global_iterations < 1) return MakeError("ba.global_iterations must be >= 1");
+  if (!(huber_px > 0)) return MakeError("ba.huber_px must be > 0");
+  if (global_threads < 1) return MakeError("ba.global_threads must be >= 1");
+  return Status::Ok();
+}
+
+SlidingWindowBundleAdjuster::SlidingWindowBundleAdjuster(const BundleAdjusterOptions& options, double fx, double fy)
+    : options_(options), fx_(fx), fy_(fy), problem_(std::make_unique<ceres::Problem>(ProblemOptions())) {}
+
+SlidingWindowBundleAdjuster::~SlidingWindowBundleAdjuster() = default;
+
+size_t SlidingWindowBundleAdjuster::residual_blocks() const { return static_cast<size_t>(problem_->NumResidualBlocks()); }
+
+void SlidingWindowBundleAdjuster::AddObservation(FrameState* frame, const TagObservation& obs, MapTag* tag) {
+  if (!tag->known && !tags_in_problem_.count(tag->id)) {
+    AddPoseBlocks(problem_.get(), &tag->world_from_tag);
+    if (tag->anchor) {
+      problem_->SetParameterBlockConstant(tag->world_from_tag.q);
+      problem_->SetParameterBlockConstant(tag->world_from_tag.t);
+    }
+    tags_in_problem_[tag->id] = tag;
+  }
+  residuals_per_tag_[tag->id] += AddTagResiduals(problem_.get(), frame, obs, tag, fx_, fy_, SharedLoss(options_.huber_px));
+  tags_per_frame_[frame].push_back(tag->id);
+}
+
+void SlidingWindowBundleAdjuster::AddKeyframe(FrameState* frame, std::map<TagId, MapTag>* tags) {
+  map_ = tags;
+  if (window_.size() >= static_cast<size_t>(options_.window_keyframes)) RemoveOldest();
+  AddPoseBlocks(problem_.get(), &frame->cam_from_world);
+  window_.push_back(frame);
+  for (const auto& obs : frame->tags) {
+    auto it = tags->find(obs.id);
+    if (it != tags->end()) AddObservation(frame, obs, &it->second);
+  }
+  HoldOldestFixed();
+}
+
+void SlidingWindowBundleAdjuster::AddTag(MapTag* tag) {
+  for (FrameState* frame : window_) {
+    if (const TagObservation* obs = frame->Find(tag->id)) AddObservation(frame, *obs, tag);
+  }
+}
+
+void SlidingWindowBundleAdjuster::RemoveOldest() {
+  FrameState* oldest = window_.front();
+  window_.pop_front();
+  if (fixed_frame_ == oldest) fixed_frame_ = nullptr;
+  // Removing the pose blocks removes the frame's residuals with them.
+  problem_->RemoveParameterBlock(oldest->cam_from_world.q);
+  problem_->RemoveParameterBlock(oldest->cam_from_world.t);
+  for (TagId id : tags_per_frame_[oldest]) {
+    if ((residuals_per_tag_[id] -= 4) > 0) continue;
+    residuals_per_tag_.erase(id);
+    auto it = tags_in_problem_.find(id);
+    if (it != tags_in_problem_.end()) {
+      problem_->RemoveParameterBlock(it->second->world_from_tag.q);
+      problem_->RemoveParameterBlock(it->second->world_from_tag.t);
+      tags_in_problem_.erase(it);
+    }
+  }
+  tags_per_frame_.erase(oldest);
+}
+
+void SlidingWindowBundleAdjuster::HoldOldestFixed() {
+  // The oldest keyframe stands in for everything that left the window: held
+  // fixed, it keeps the window from drifting (and fixes the gauge).
+  if (window_.empty() || fixed_frame_ == window_.front()) return;
+  fixed_frame_ = window_.front();
+  problem_->SetParameterBlockConstant(window_.front()->cam_from_world.q);
+  problem_->SetParameterBlockConstant(window_.front()->cam_from_world.t);
+}
+
+bool SlidingWindowBundleAdjuster::Solve() {
+  bool any_free = false;
+  for (const auto& [id, tag] : tags_in_problem_) any_free = any_free || !tag->anchor;
+  if (!any_free || window_.size() < 2) return false;
+  ceres::Solver::Options options;
+  options.linear_solver_type = ceres::DENSE_SCHUR;
+  options.max_num_iterations = options_.window_iterations;
+  options.num_threads = 1;
+  options.logging_type = ceres::SILENT;
+  ceres::Solver::Summary summary;
+  ceres::Solve(options, problem_.get(), &summary);
+  return summary.IsSolutionUsable();
+}
+
+namespace {
+
+double RmsOf(ceres::Problem* problem) {
+  double cost = 0;
+  ceres::Problem::EvaluateOptions eval;
+  eval.apply_loss_function = false;
+  std::vector<double> residuals;
+  problem->Evaluate(eval, &cost, &residuals, nullptr, nullptr);
+  return residuals.empty() ? 0.0 : std::sqrt(2.0 * cost / (static_cast<double>(residuals.size()) / 2.0));
+}
+
+void ComputeCovariance(ceres::Problem* problem, std::map<TagId, MapTag>* tags, int free_parameters,
+                       GlobalAdjustmentSummary* out) {
+  TagCovariance result;
+  std::vector<const double*> blocks;
+  for (auto& [id, tag] : *tags) {
+    if (tag.known || tag.anchor || !problem->HasParameterBlock(tag.world_from_tag.q)) continue;
+    result.ids.push_back(id);
+    blocks.push_back(tag.world_from_tag.q);
+    blocks.push_back(tag.world_from_tag.t);
+  }
+  if (result.ids.empty()) {
+    out->covariance_note = "no learned tags: every target was held fixed";
+    return;
+  }
+  ceres::Covariance::Options options;
+  options.algorithm_type = ceres::SPARSE_QR;
+  options.num_threads = 2;
+  ceres::Covariance covariance(options);
+  std::vector<std::pair<const double*, const double*>> pairs;
+  for (size_t i = 0; i < blocks.size(); ++i) {
+    for (size_t j = i; j < blocks.size(); ++j) pairs.emplace_back(blocks[i], blocks[j]);
+  }
+  if (!covariance.Compute(pairs, problem)) {
+    out->covariance_note = "the adjustment's covariance could not be computed (rank deficient)";
+    return;
+  }
+  const int n = static_cast<int>(result.ids.size()) * 6;
+  result.covariance.resize(n, n);
+  if (!covariance.GetCovarianceMatrixInTangentSpace(blocks, result.covariance.data())) {
+    out->covariance_note = "the adjustment's covariance could not be extracted";
+    return;
+  }
+  // Ceres' covariance is for unit-variance residuals: scale by the a
+  // posteriori variance of a residual, sum r^2 / (m - n).
+  double cost = 0;
+  ceres::Problem::EvaluateOptions eval;
+  eval.apply_loss_function = false;
+  std::vector<double> residuals;
+  problem->Evaluate(eval, &cost, &residuals, nullptr, nullptr);
+  const double dof = static_cast<double>(residuals.size()) - free_parameters;
+  const double variance = dof > 0 ? 2.0 * cost / dof : 1.0;
+  result.covariance = (result.covariance * variance).eval();  // Eigen's storage is column-major; symmetric anyway
+  out->covariance = std::move(result);
+}
+
+}  // namespace
+
+GlobalAdjustmentSummary AdjustGlobally(const std::vector<FrameState*>& frames, std::map<TagId, MapTag>* tags,
+                                       double fx, double fy, const BundleAdjusterOptions& options) {
+  GlobalAdjustmentSummary out;
+  ceres::Problem problem(ProblemOptions());
+  ceres::LossFunction* loss = SharedLoss(options.huber_px);
+  int free_parameters = 0;
+  std::map<TagId, bool> added;
+  for (FrameState* frame : frames) {
+    if (!frame->registered) continue;
+    int residuals = 0;
+    for (const auto& obs : frame->tags) {
+      auto it = tags->find(obs.id);
+      if (it == tags->end()) continue;
+      MapTag& tag = it->second;
+      if (!tag.known && !added[tag.id]) {
+        AddPoseBlocks(&problem, &tag.world_from_tag);
+        if (tag.anchor) {
+          problem.SetParameterBlockConstant(tag.world_from_tag.q);
+          problem.SetParameterBlockConstant(tag.world_from_tag.t);
+        } else {
+          free_parameters += 6;
+        }
+        added[tag.id] = true;
+      }
+      if (residuals == 0) {
+        AddPoseBlocks(&problem, &frame->cam_from_world);
+        free_parameters += 6;
+      }
+      residuals += AddTagResiduals(&problem, frame, obs, &tag, fx, fy, loss);
+    }
+  }
+  if (problem.NumResidualBlocks() == 0) {
+    out.covariance_note = "nothing to adjust";
+    return out;
+  }
+  out.initial_rms_px = RmsOf(&problem);
+  ceres::Solver::Options solver;
+  solver.linear_solver_type = ceres::SPARSE_SCHUR;
+  solver.max_num_iterations = options.global_iterations;
+  solver.num_threads = options.global_threads;
+  solver.function_tolerance = 1e-12;
+  solver.parameter_tolerance = 1e-12;
+  solver.gradient_tolerance = 1e-14;
+  solver.logging_type = ceres::SILENT;
+  ceres::Solver::Summary summary;
+  ceres::Solve(solver, &problem, &summary);
+  out.converged = summary.termination_type == ceres::CONVERGENCE;
+  out.iterations = static_cast<int>(summary.iterations.size());
+  out.final_rms_px = RmsOf(&problem);
+  if (options.compute_covariance) ComputeCovariance(&problem, tags, free_parameters, &out);
+  return out;
+}
+
+}  // namespace tagsfm

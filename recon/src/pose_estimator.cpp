@@ -1,0 +1,344 @@
+#include "tagsfm/recon/pose_estimator.h"
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+
+#include <ceres/ceres.h>
+#include <Eigen/Eigenvalues>
+#include <opencv2/calib3d.hpp>
+#include <opencv2/core/eigen.hpp>
+
+#include "tagsfm/recon/cost_functions.h"
+#include "tagsfm/recon/pose_params.h"
+#include "tagsfm/recon/tag_geometry.h"
+
+namespace tagsfm {
+namespace {
+
+Rigid3d FromRvecTvec(const cv::Mat& rvec, const cv::Mat& tvec) {
+  cv::Mat rotation_cv;
+  cv::Rodrigues(rvec, rotation_cv);
+  Eigen::Matrix3d rotation;
+  cv::cv2eigen(rotation_cv, rotation);
+  return Rigid3d(Eigen::Quaterniond(rotation), Eigen::Vector3d(tvec.at<double>(0), tvec.at<double>(1), tvec.at<double>(2)));
+}
+
+// Eigenvalues of the points' scatter, largest first.
+Eigen::Vector3d Spread(const std::vector<Eigen::Vector3d>& points) {
+  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+  for (const auto& p : points) mean += p;
+  mean /= static_cast<double>(points.size());
+  Eigen::Matrix3d scatter = Eigen::Matrix3d::Zero();
+  for (const auto& p : points) scatter += (p - mean) * (p - mean).transpose();
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver(scatter / static_cast<double>(points.size()));
+  const Eigen::Vector3d ev = solver.eigenvalues();  // ascending
+  return {ev(2), ev(1), std::max(ev(0), 0.0)};
+}
+
+bool ImagePointsCollinear(const std::vector<Eigen::Vector2d>& normalized) {
+  Eigen::Vector2d mean = Eigen::Vector2d::Zero();
+  for (const auto& p : normalized) mean += p;
+  mean /= static_cast<double>(normalized.size());
+  Eigen::Matrix2d scatter = Eigen::Matrix2d::Zero();
+  for (const auto& p : normalized) scatter += (p - mean) * (p - mean).transpose();
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> solver(scatter);
+  return solver.eigenvalues()(0) <= 1e-12 * std::max(solver.eigenvalues()(1), 1e-300);
+}
+
+struct Candidate {
+  PoseMethod method = PoseMethod::kNone;
+  Rigid3d cam_from_world;
+  std::vector<int> inliers;
+  double rms_px = 0;
+  bool in_front = false;
+  double inlier_ratio = 0;
+  bool passes = false;
+  double jump_deg = 0;
+  std::string failure;
+};
+
+class CandidateEvaluator {
+ public:
+  CandidateEvaluator(const std::vector<Eigen::Vector3d>& points, const std::vector<Eigen::Vector2d>& normalized,
+                     double fx, double fy, const std::optional<Rigid3d>& previous, const PoseEstimatorOptions& options)
+      : points_(points), normalized_(normalized), fx_(fx), fy_(fy), previous_(previous), options_(options) {}
+
+  // Refines `initial` on `use` (all points when empty), then re-selects the
+  // inliers, refines again on them and checks the result.
+  Candidate Evaluate(PoseMethod method, const Rigid3d& initial, std::vector<int> use) const {
+    if (use.size() < 4) use = AllIndices();
+    Candidate c;
+    c.method = method;
+    c.cam_from_world = RefinePose(points_, normalized_, use, fx_, fy_, initial, options_.huber_px,
+                                  options_.refine_iterations);
+    c.inliers = Inliers(c.cam_from_world);
+    if (c.inliers.size() >= 4 && c.inliers != use) {
+      c.cam_from_world = RefinePose(points_, normalized_, c.inliers, fx_, fy_, c.cam_from_world, options_.huber_px,
+                                    options_.refine_iterations);
+      c.inliers = Inliers(c.cam_from_world);
+    }
+    Check(&c);
+    return c;
+  }
+
+  std::vector<int> AllIndices() const {
+    std::vector<int> all(points_.size());
+    for (size_t i = 0; i < all.size(); ++i) all[i] = static_cast<int>(i);
+    return all;
+  }
+
+ private:
+  Eigen::Vector2d ErrorPx(const Rigid3d& pose, int i, double* depth) const {
+    const Eigen::Vector3d p = pose * points_[i];
+    *depth = p.z();
+    return {fx_ * (p.x() / p.z() - normalized_[i].x()), fy_ * (p.y() / p.z() - normalized_[i].y())};
+  }
+
+  std::vector<int> Inliers(const Rigid3d& pose) const {
+    std::vector<int> out;
+    for (size_t i = 0; i < points_.size(); ++i) {
+      double depth = 0;
+      const double err = ErrorPx(pose, static_cast<int>(i), &depth).norm();
+      if (depth > 0 && err < options_.ransac_threshold_px) out.push_back(static_cast<int>(i));
+    }
+    return out;
+  }
+
+  void Check(Candidate* c) const {
+    double sum = 0;
+    c->in_front = true;
+    for (int i : c->inliers) {
+      double depth = 0;
+      sum += ErrorPx(c->cam_from_world, i, &depth).squaredNorm();
+      if (!(depth > 0)) c->in_front = false;
+    }
+    // The points as a whole must lie in front too, not just the inliers.
+    int behind = 0;
+    for (const auto& p : points_) behind += (c->cam_from_world * p).z() <= 0;
+    if (behind * 2 > static_cast<int>(points_.size())) c->in_front = false;
+    c->rms_px = c->inliers.empty() ? INFINITY : std::sqrt(sum / static_cast<double>(c->inliers.size()));
+    c->inlier_ratio = static_cast<double>(c->inliers.size()) / static_cast<double>(points_.size());
+    c->jump_deg = previous_ ? RotationAngleDeg(previous_->rotation, c->cam_from_world.rotation) : 0.0;
+    std::ostringstream why;
+    if (c->inliers.size() < 4) {
+      why << "only " << c->inliers.size() << " inlier corners";
+    } else if (!c->in_front) {
+      why << "no pose puts the points in front of the camera";
+    } else if (!(c->rms_px <= options_.max_rms_px)) {
+      why << "reprojection RMS " << c->rms_px << " px > " << options_.max_rms_px << " px";
+    } else if (c->inlier_ratio < options_.min_inlier_ratio) {
+      why << "only " << c->inliers.size() << " of " << points_.size() << " corners agree";
+    }
+    c->failure = why.str();
+    c->passes = c->failure.empty();
+  }
+
+  const std::vector<Eigen::Vector3d>& points_;
+  const std::vector<Eigen::Vector2d>& normalized_;
+  double fx_, fy_;
+  const std::optional<Rigid3d>& previous_;
+  const PoseEstimatorOptions& options_;
+};
+
+// Picks among the checked candidates: the lowest RMS, except that a candidate
+// nearly as good which agrees with the previous frame beats one that jumped.
+const Candidate* Choose(const std::vector<Candidate>& candidates, double max_jump_deg) {
+  double best_rms = INFINITY;
+  for (const auto& c : candidates) {
+    if (c.passes) best_rms = std::min(best_rms, c.rms_px);
+  }
+  const Candidate* chosen = nullptr;
+  for (const auto& c : candidates) {
+    if (!c.passes || c.rms_px > 1.5 * best_rms + 0.05) continue;
+    if (!chosen) {
+      chosen = &c;
+      continue;
+    }
+    const bool c_agrees = c.jump_deg <= max_jump_deg, chosen_agrees = chosen->jump_deg <= max_jump_deg;
+    if (c_agrees != chosen_agrees) {
+      if (c_agrees) chosen = &c;
+    } else if (c.rms_px < chosen->rms_px - 1e-9) {
+      chosen = &c;
+    }
+  }
+  return chosen;
+}
+
+std::vector<cv::Point3d> ToCv(const std::vector<Eigen::Vector3d>& points, const std::vector<int>& use) {
+  std::vector<cv::Point3d> out;
+  out.reserve(use.size());
+  for (int i : use) out.emplace_back(points[i].x(), points[i].y(), points[i].z());
+  return out;
+}
+std::vector<cv::Point2d> ToCv(const std::vector<Eigen::Vector2d>& points, const std::vector<int>& use) {
+  std::vector<cv::Point2d> out;
+  out.reserve(use.size());
+  for (int i : use) out.emplace_back(points[i].x(), points[i].y());
+  return out;
+}
+
+}  // namespace
+
+const char* PoseMethodName(PoseMethod method) {
+  switch (method) {
+    case PoseMethod::kEpnp: return "epnp";
+    case PoseMethod::kSqpnp: return "sqpnp";
+    case PoseMethod::kIppe: return "ippe";
+    default: return "none";
+  }
+}
+
+Status PoseEstimatorOptions::Check() const {
+  if (!(ransac_threshold_px > 0)) return MakeError("pose.ransac_threshold_px must be > 0");
+  if (ransac_iterations < 1) return MakeError("pose.ransac_iterations must be >= 1");
+  if (!(ransac_confidence > 0 && ransac_confidence < 1)) return MakeError("pose.ransac_confidence must be in (0, 1)");
+  if (!(max_rms_px > 0)) return MakeError("pose.max_rms_px must be > 0");
+  if (!(min_inlier_ratio > 0 && min_inlier_ratio <= 1)) return MakeError("pose.min_inlier_ratio must be in (0, 1]");
+  if (!(max_rotation_jump_deg > 0)) return MakeError("pose.max_rotation_jump_deg must be > 0");
+  if (!(planarity_ratio >= 0 && planarity_ratio < 1)) return MakeError("pose.planarity_ratio must be in [0, 1)");
+  if (!(huber_px > 0)) return MakeError("pose.huber_px must be > 0");
+  if (refine_iterations < 1) return MakeError("pose.refine_iterations must be >= 1");
+  return Status::Ok();
+}
+
+Rigid3d RefinePose(const std::vector<Eigen::Vector3d>& points_in_world, const std::vector<Eigen::Vector2d>& normalized,
+                   const std::vector<int>& use, double fx, double fy, const Rigid3d& initial, double huber_px,
+                   int max_iterations) {
+  PoseParams pose(initial);
+  ceres::Problem::Options problem_options;
+  problem_options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  ceres::Problem problem(problem_options);
+  ceres::HuberLoss loss(huber_px);
+  for (int i : use) {
+    problem.AddResidualBlock(FixedPointReprojectionError::Create(normalized[i], points_in_world[i], fx, fy), &loss,
+                             pose.q, pose.t);
+  }
+  problem.SetManifold(pose.q, new ceres::EigenQuaternionManifold);
+  ceres::Solver::Options options;
+  options.linear_solver_type = ceres::DENSE_QR;
+  options.max_num_iterations = max_iterations;
+  options.logging_type = ceres::SILENT;
+  options.num_threads = 1;
+  options.function_tolerance = 1e-10;
+  options.parameter_tolerance = 1e-10;
+  ceres::Solver::Summary summary;
+  ceres::Solve(options, &problem, &summary);
+  const Rigid3d refined = pose.ToRigid();
+  if (!summary.IsSolutionUsable() || !refined.translation.allFinite()) return initial;
+  return refined;
+}
+
+std::vector<Rigid3d> TagPoseCandidates(const std::array<Eigen::Vector2d, 4>& normalized, double size_m) {
+  std::vector<cv::Point3d> object;
+  std::vector<cv::Point2d> image;
+  for (int k = 0; k < 4; ++k) {
+    const Eigen::Vector3d c = TagCornerInTag(k, size_m);
+    object.emplace_back(c.x(), c.y(), c.z());
+    image.emplace_back(normalized[k].x(), normalized[k].y());
+  }
+  std::vector<cv::Mat> rvecs, tvecs;
+  std::vector<double> errors;
+  std::vector<Rigid3d> out;
+  try {
+    cv::solvePnPGeneric(object, image, cv::Mat::eye(3, 3, CV_64F), cv::noArray(), rvecs, tvecs, false,
+                        cv::SOLVEPNP_IPPE, cv::noArray(), cv::noArray(), errors);
+  } catch (const cv::Exception&) {
+    return out;
+  }
+  for (size_t i = 0; i < rvecs.size(); ++i) {
+    const Rigid3d pose = FromRvecTvec(rvecs[i], tvecs[i]);
+    if (pose.translation.allFinite() && pose.translation.z() > 0) out.push_back(pose);
+  }
+  return out;
+}
+
+PoseResult EstimatePose(const std::vector<Eigen::Vector3d>& points_in_world,
+                        const std::vector<Eigen::Vector2d>& normalized, double fx, double fy,
+                        const std::optional<Rigid3d>& previous, const PoseEstimatorOptions& options) {
+  PoseResult result;
+  const size_t n = points_in_world.size();
+  if (n != normalized.size()) {
+    result.reason = "internal: points and observations differ in number";
+    return result;
+  }
+  if (n < 4) {
+    result.reason = "only " + std::to_string(n) + " corner correspondences (need 4)";
+    return result;
+  }
+  const Eigen::Vector3d spread = Spread(points_in_world);
+  if (!(spread(0) > 1e-18) || spread(1) <= 1e-10 * spread(0)) {
+    result.reason = "degenerate geometry: the target corners are collinear";
+    return result;
+  }
+  if (ImagePointsCollinear(normalized)) {
+    result.reason = "degenerate geometry: the corners are collinear in the image";
+    return result;
+  }
+  const bool nearly_planar = std::sqrt(spread(2) / spread(0)) < options.planarity_ratio;
+  const double f = 0.5 * (fx + fy);
+
+  CandidateEvaluator evaluator(points_in_world, normalized, fx, fy, previous, options);
+  const std::vector<int> all = evaluator.AllIndices();
+  const auto object_all = ToCv(points_in_world, all);
+  const auto image_all = ToCv(normalized, all);
+  const cv::Mat identity = cv::Mat::eye(3, 3, CV_64F);
+  std::vector<Candidate> candidates;
+
+  // 1. EPnP inside RANSAC.
+  std::vector<int> ransac_inliers;
+  try {
+    cv::Mat rvec, tvec;
+    if (cv::solvePnPRansac(object_all, image_all, identity, cv::noArray(), rvec, tvec, false,
+                           options.ransac_iterations, static_cast<float>(options.ransac_threshold_px / f),
+                           options.ransac_confidence, ransac_inliers, cv::SOLVEPNP_EPNP)) {
+      const Rigid3d pose = FromRvecTvec(rvec, tvec);
+      if (pose.translation.allFinite()) candidates.push_back(evaluator.Evaluate(PoseMethod::kEpnp, pose, ransac_inliers));
+    }
+  } catch (const cv::Exception&) {
+    // Degenerate samples can make OpenCV throw; the fall-backs below decide.
+  }
+  const bool epnp_passed = !candidates.empty() && candidates[0].passes;
+  const std::vector<int>& support = candidates.empty() || candidates[0].inliers.size() < 4 ? all : candidates[0].inliers;
+
+  // 2. SQPnP when EPnP failed or the geometry is where EPnP goes wrong.
+  if (!epnp_passed || nearly_planar) {
+    try {
+      cv::Mat rvec, tvec;
+      if (cv::solvePnP(ToCv(points_in_world, support), ToCv(normalized, support), identity, cv::noArray(), rvec, tvec,
+                       false, cv::SOLVEPNP_SQPNP)) {
+        const Rigid3d pose = FromRvecTvec(rvec, tvec);
+        if (pose.translation.allFinite()) candidates.push_back(evaluator.Evaluate(PoseMethod::kSqpnp, pose, support));
+      }
+    } catch (const cv::Exception&) {
+    }
+  }
+  // 3. IPPE's two planar solutions.
+  if (nearly_planar) {
+    try {
+      std::vector<cv::Mat> rvecs, tvecs;
+      cv::solvePnPGeneric(ToCv(points_in_world, support), ToCv(normalized, support), identity, cv::noArray(), rvecs,
+                          tvecs, false, cv::SOLVEPNP_IPPE);
+      for (size_t i = 0; i < rvecs.size(); ++i) {
+        const Rigid3d pose = FromRvecTvec(rvecs[i], tvecs[i]);
+        if (pose.translation.allFinite()) candidates.push_back(evaluator.Evaluate(PoseMethod::kIppe, pose, support));
+      }
+    } catch (const cv::Exception&) {
+    }
+  }
+
+  const Candidate* chosen = Choose(candidates, options.max_rotation_jump_deg);
+  if (!chosen) {
+    result.reason = candidates.empty() ? "no PnP solver found a pose" : "pose check failed: " + candidates[0].failure;
+    return result;
+  }
+  result.registered = true;
+  result.cam_from_world = chosen->cam_from_world;
+  result.inliers = chosen->inliers;
+  result.rms_px = chosen->rms_px;
+  result.method = chosen->method;
+  result.fell_back = chosen->method != PoseMethod::kEpnp && !epnp_passed;
+  return result;
+}
+
+}  // namespace tagsfm

@@ -1,0 +1,364 @@
+#include "tagsfm/recon/reconstructor.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "tagsfm/recon/tag_geometry.h"
+#include "tagsfm/recon/tag_initializer.h"
+
+namespace tagsfm {
+
+Status ReconstructorOptions::Check() const {
+  if (Status s = pose.Check(); !s) return s;
+  if (Status s = ba.Check(); !s) return s;
+  if (!(min_tag_view_angle_deg >= 0)) return MakeError("recon.min_tag_view_angle_deg must be >= 0");
+  if (max_pending_views < 1) return MakeError("recon.max_pending_views must be >= 1");
+  if (!(max_tag_init_rms_px > 0)) return MakeError("recon.max_tag_init_rms_px must be > 0");
+  if (bootstrap_max_frames < 1) return MakeError("recon.bootstrap_max_frames must be >= 1");
+  if (!(bootstrap_min_angle_deg >= 0)) return MakeError("recon.bootstrap_min_angle_deg must be >= 0");
+  if (!(keyframe_min_translation_ratio >= 0)) return MakeError("recon.keyframe_min_translation_ratio must be >= 0");
+  if (!(keyframe_min_rotation_deg >= 0)) return MakeError("recon.keyframe_min_rotation_deg must be >= 0");
+  return Status::Ok();
+}
+
+Result<std::unique_ptr<Reconstructor>> Reconstructor::Create(const CameraModel& camera, const TargetConfig& targets,
+                                                            const std::optional<TargetCornerMap>& known_map,
+                                                            const ReconstructorOptions& options) {
+  if (Status s = camera.Check(); !s) return s.error();
+  if (Status s = options.Check(); !s) return s.error();
+  if (!(targets.size_m > 0)) return MakeError("targets.size_m must be > 0 (got " + std::to_string(targets.size_m) + ")");
+  std::unique_ptr<Reconstructor> r(new Reconstructor(camera, targets, options));
+  if (known_map && !known_map->empty()) {
+    for (const auto& [id, corners] : *known_map) {
+      MapTag tag;
+      tag.id = id;
+      tag.size_m = targets.SizeOf(id);
+      tag.known = true;
+      tag.known_corners = corners;
+      tag.world_from_tag.Set(FitTagPose(corners, tag.size_m));
+      r->tags_[id] = tag;
+    }
+    r->started_ = true;
+  }
+  return r;
+}
+
+Reconstructor::Reconstructor(const CameraModel& camera, const TargetConfig& targets, const ReconstructorOptions& options)
+    : camera_(camera),
+      targets_(targets),
+      options_(options),
+      fx_(camera.fx),
+      fy_(camera.fy),
+      window_(std::make_unique<SlidingWindowBundleAdjuster>(options.ba, camera.fx, camera.fy)) {}
+
+Reconstructor::~Reconstructor() = default;
+
+FrameState& Reconstructor::MakeFrameState(const DetectionSet& detections) {
+  FrameState& frame = frames_.emplace_back();
+  frame.frame = detections.frame;
+  // A tag id seen twice in one frame cannot be told apart: neither is used.
+  std::map<TagId, int> seen;
+  for (const auto& d : detections.tags) ++seen[d.id];
+  std::vector<Eigen::Vector2d> pixels;
+  for (const auto& d : detections.tags) {
+    if (seen[d.id] != 1 || !(targets_.SizeOf(d.id) > 0)) continue;
+    TagObservation obs;
+    obs.id = d.id;
+    obs.pixels = d.corners;
+    frame.tags.push_back(obs);
+    pixels.insert(pixels.end(), d.corners.begin(), d.corners.end());
+  }
+  const std::vector<Eigen::Vector2d> normalized = camera_.PixelsToNormalized(pixels);
+  for (size_t i = 0; i < frame.tags.size(); ++i) {
+    for (int k = 0; k < 4; ++k) frame.tags[i].normalized[k] = normalized[4 * i + k];
+  }
+  return frame;
+}
+
+std::optional<Rigid3d> Reconstructor::PreviousPose(const FrameState& frame) const {
+  // The registered frame nearest in sequence order (the last one while live).
+  if (last_registered_ && last_registered_->frame <= frame.frame) return last_registered_->cam_from_world.ToRigid();
+  const FrameState* nearest = nullptr;
+  for (const auto& f : frames_) {
+    if (!f.registered || &f == &frame) continue;
+    if (!nearest || std::llabs(f.frame - frame.frame) < std::llabs(nearest->frame - frame.frame)) nearest = &f;
+  }
+  if (!nearest) return std::nullopt;
+  return nearest->cam_from_world.ToRigid();
+}
+
+FrameReport Reconstructor::AddFrame(const DetectionSet& detections) {
+  FrameState& frame = MakeFrameState(detections);
+  FrameReport report;
+  report.frame = frame.frame;
+  report.tags_seen = static_cast<int>(frame.tags.size());
+  if (frame.tags.empty()) {
+    frame.reason = "no tags detected";
+  } else if (!started_) {
+    if (!TryBootstrap(frame)) frame.reason = "waiting for a second view to start the map";
+  } else {
+    Register(frame, true, &report);
+  }
+  report.registered = frame.registered;
+  report.reason = frame.reason;
+  report.cam_from_world = frame.cam_from_world.ToRigid();
+  report.method = frame.method;
+  report.fell_back = frame.fell_back;
+  report.rms_px = frame.pnp_rms_px;
+  report.keyframe = frame.keyframe;
+  report.mapped_tags = tags_.size();
+  return report;
+}
+
+bool Reconstructor::TryBootstrap(FrameState& frame) {
+  std::map<TagId, double> sizes;
+  for (const auto& obs : frame.tags) sizes[obs.id] = targets_.SizeOf(obs.id);
+  for (FrameState* earlier : bootstrap_buffer_) {
+    const auto boot = BootstrapFromTwoViews(*earlier, frame, sizes, fx_, fy_);
+    if (!boot || boot->view_angle_deg < options_.bootstrap_min_angle_deg || boot->rms_px > options_.max_tag_init_rms_px) {
+      continue;
+    }
+    anchor_ = boot->anchor;
+    for (const auto& [id, world_from_tag] : boot->world_from_tag) {
+      MapTag tag;
+      tag.id = id;
+      tag.size_m = targets_.SizeOf(id);
+      tag.anchor = id == boot->anchor;
+      tag.world_from_tag.Set(world_from_tag);
+      tags_[id] = tag;
+    }
+    for (auto [state, pose] : {std::pair{earlier, boot->first_cam_from_world}, std::pair{&frame, boot->second_cam_from_world}}) {
+      state->registered = true;
+      state->reason.clear();
+      state->method = PoseMethod::kIppe;
+      state->cam_from_world.Set(pose);
+      state->keyframe = true;
+      CountMethod(*state);
+      window_->AddKeyframe(state, &tags_);
+      last_keyframe_ = state;
+    }
+    last_registered_ = &frame;
+    started_ = true;
+    window_->Solve();
+    for (FrameState* state : {earlier, &frame}) {
+      for (const auto& obs : state->tags) {
+        if (!tags_.count(obs.id)) pending_[obs.id].push_back(state);
+      }
+    }
+    RegisterBuffered(&frame);
+    return true;
+  }
+  bootstrap_buffer_.push_back(&frame);
+  if (bootstrap_buffer_.size() < static_cast<size_t>(options_.bootstrap_max_frames)) return false;
+  // No two views to decide with: the view with the largest tag starts the map.
+  FrameState* best = nullptr;
+  double best_area = -1;
+  for (FrameState* f : bootstrap_buffer_) {
+    for (const auto& obs : f->tags) {
+      const double area = (obs.pixels[2] - obs.pixels[0]).norm() * (obs.pixels[3] - obs.pixels[1]).norm();
+      if (area > best_area) {
+        best_area = area;
+        best = f;
+      }
+    }
+  }
+  StartMapFromOneView(*best);
+  RegisterBuffered(best);
+  return frame.registered;
+}
+
+void Reconstructor::StartMapFromOneView(FrameState& frame) {
+  const TagObservation* anchor = nullptr;
+  double best_area = -1;
+  for (const auto& obs : frame.tags) {
+    const double area = (obs.pixels[2] - obs.pixels[0]).norm() * (obs.pixels[3] - obs.pixels[1]).norm();
+    if (area > best_area) {
+      best_area = area;
+      anchor = &obs;
+    }
+  }
+  const auto candidates = TagPoseCandidates(anchor->normalized, targets_.SizeOf(anchor->id));
+  if (candidates.empty()) return;
+  MapTag tag;
+  tag.id = anchor->id;
+  tag.size_m = targets_.SizeOf(anchor->id);
+  tag.anchor = true;
+  tags_[tag.id] = tag;
+  anchor_ = tag.id;
+  started_ = true;
+  frame.registered = true;
+  frame.reason.clear();
+  frame.method = PoseMethod::kIppe;
+  frame.cam_from_world.Set(candidates.front());
+  frame.keyframe = true;
+  CountMethod(frame);
+  window_->AddKeyframe(&frame, &tags_);
+  last_keyframe_ = &frame;
+  last_registered_ = &frame;
+  for (const auto& obs : frame.tags) {
+    if (!tags_.count(obs.id)) pending_[obs.id].push_back(&frame);
+  }
+}
+
+void Reconstructor::RegisterBuffered(const FrameState* except) {
+  std::vector<FrameState*> buffered;
+  buffered.swap(bootstrap_buffer_);
+  for (FrameState* f : buffered) {
+    if (f == except || f->registered) continue;
+    FrameReport ignored;
+    Register(*f, true, &ignored);
+  }
+}
+
+void Reconstructor::CountMethod(const FrameState& frame) {
+  ++method_counts_[PoseMethodName(frame.method)];
+  if (frame.fell_back) ++method_counts_["fallback"];
+}
+
+void Reconstructor::Register(FrameState& frame, bool adjust, FrameReport* report) {
+  std::vector<Eigen::Vector3d> points;
+  std::vector<Eigen::Vector2d> observed;
+  for (const auto& obs : frame.tags) {
+    auto it = tags_.find(obs.id);
+    if (it == tags_.end()) continue;
+    const TagCorners corners = it->second.CornersInWorld();
+    for (int k = 0; k < 4; ++k) {
+      points.push_back(corners[k]);
+      observed.push_back(obs.normalized[k]);
+    }
+    ++report->tags_used;
+  }
+  if (points.empty()) {
+    frame.reason = "none of its " + std::to_string(frame.tags.size()) + " tags is in the map yet";
+    return;
+  }
+  const PoseResult pose = EstimatePose(points, observed, fx_, fy_, PreviousPose(frame), options_.pose);
+  if (!pose.registered) {
+    frame.reason = pose.reason;
+    return;
+  }
+  frame.registered = true;
+  frame.reason.clear();
+  frame.cam_from_world.Set(pose.cam_from_world);
+  frame.method = pose.method;
+  frame.fell_back = pose.fell_back;
+  frame.pnp_rms_px = pose.rms_px;
+  CountMethod(frame);
+  if (!last_registered_ || last_registered_->frame <= frame.frame) last_registered_ = &frame;
+  if (!adjust) return;
+
+  std::vector<TagId> added;
+  report->tags_added = MapPendingTags(frame, &added);
+  if (IsKeyframe(frame, !added.empty())) {
+    frame.keyframe = true;
+    for (TagId id : added) window_->AddTag(&tags_.at(id));
+    window_->AddKeyframe(&frame, &tags_);
+    last_keyframe_ = &frame;
+    window_->Solve();
+  }
+}
+
+int Reconstructor::MapPendingTags(FrameState& frame, std::vector<TagId>* added) {
+  for (const auto& obs : frame.tags) {
+    if (tags_.count(obs.id)) continue;
+    auto& views = pending_[obs.id];
+    views.push_back(&frame);
+    // Bounded: the latest views say the most about where the tag is now.
+    if (views.size() > 20) views.erase(views.begin());
+    std::vector<TagView> tag_views;
+    for (FrameState* f : views) tag_views.push_back({f, f->Find(obs.id)});
+    const double size = targets_.SizeOf(obs.id);
+    // A cheap look first: is the angle between the views wide enough yet?
+    const auto single = TagPoseCandidates(obs.normalized, size);
+    if (single.empty()) continue;
+    const Eigen::Vector3d centre = frame.cam_from_world.ToRigid().Inverse() * single.front().translation;
+    const bool enough = MaxViewAngleDeg(tag_views, centre) >= options_.min_tag_view_angle_deg ||
+                        static_cast<int>(views.size()) >= options_.max_pending_views;
+    if (!enough) continue;
+    const auto init = InitializeTag(tag_views, size, fx_, fy_);
+    if (!init || init->rms_px > options_.max_tag_init_rms_px) continue;
+    MapTag tag;
+    tag.id = obs.id;
+    tag.size_m = size;
+    tag.world_from_tag.Set(init->world_from_tag);
+    tags_[obs.id] = tag;
+    pending_.erase(obs.id);
+    added->push_back(obs.id);
+  }
+  return static_cast<int>(added->size());
+}
+
+bool Reconstructor::IsKeyframe(const FrameState& frame, bool added_tags) const {
+  if (added_tags || !last_keyframe_) return true;
+  const Rigid3d current = frame.cam_from_world.ToRigid();
+  const Rigid3d last = last_keyframe_->cam_from_world.ToRigid();
+  if (RotationAngleDeg(current.rotation, last.rotation) >= options_.keyframe_min_rotation_deg) return true;
+  std::vector<double> depths;
+  for (const auto& obs : frame.tags) {
+    auto it = tags_.find(obs.id);
+    if (it != tags_.end()) depths.push_back((current * TagCenter(it->second.CornersInWorld())).z());
+  }
+  if (depths.empty()) return false;
+  std::nth_element(depths.begin(), depths.begin() + depths.size() / 2, depths.end());
+  const double median_depth = depths[depths.size() / 2];
+  return (current.Center() - last.Center()).norm() >= options_.keyframe_min_translation_ratio * median_depth;
+}
+
+ReconstructionResult Reconstructor::Finish() {
+  // Frames that came before their tags were mapped get a second chance.
+  for (auto& frame : frames_) {
+    if (frame.registered || frame.tags.empty() || !started_) continue;
+    FrameReport ignored;
+    Register(frame, false, &ignored);
+  }
+  ReconstructionResult result;
+  std::vector<FrameState*> registered;
+  for (auto& frame : frames_) {
+    if (frame.registered) registered.push_back(&frame);
+  }
+  if (options_.final_adjustment && !registered.empty()) {
+    const GlobalAdjustmentSummary summary = AdjustGlobally(registered, &tags_, fx_, fy_, options_.ba);
+    result.global_adjustment_converged = summary.converged;
+    result.covariance = summary.covariance;
+    result.covariance_note = summary.covariance_note;
+  }
+  // Reprojection statistics in pixels, through the full camera model.
+  double sum_all = 0;
+  int n_all = 0;
+  std::map<TagId, std::pair<double, int>> per_tag;
+  for (FrameState* frame : registered) {
+    const Rigid3d cam_from_world = frame->cam_from_world.ToRigid();
+    for (const auto& obs : frame->tags) {
+      auto it = tags_.find(obs.id);
+      if (it == tags_.end()) continue;
+      const TagCorners corners = it->second.CornersInWorld();
+      auto& [sum, count] = per_tag[obs.id];
+      for (int k = 0; k < 4; ++k) {
+        const double err2 = (camera_.Project(cam_from_world * corners[k]) - obs.pixels[k]).squaredNorm();
+        sum += err2;
+        sum_all += err2;
+      }
+      ++count;
+      n_all += 4;
+    }
+  }
+  for (const auto& [id, tag] : tags_) {
+    TargetStats stats;
+    stats.known = tag.known;
+    if (auto it = per_tag.find(id); it != per_tag.end()) {
+      stats.track_length = it->second.second;
+      stats.rms_px = std::sqrt(it->second.first / (4.0 * it->second.second));
+    }
+    result.target_stats[id] = stats;
+  }
+  result.camera = camera_;
+  result.frames.assign(frames_.begin(), frames_.end());
+  result.tags = tags_;
+  result.reprojection_rms_px = n_all ? std::sqrt(sum_all / n_all) : 0.0;
+  result.observations = n_all;
+  result.pose_method_counts = method_counts_;
+  result.anchor_tag = anchor_;
+  return result;
+}
+
+}  // namespace tagsfm

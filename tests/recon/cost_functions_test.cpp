@@ -1,0 +1,83 @@
+// Each residual's automatic derivatives against numeric ones.
+#include "tagsfm/recon/cost_functions.h"
+
+#include <ceres/gradient_checker.h>
+#include <ceres/manifold.h>
+#include <gtest/gtest.h>
+
+#include "tagsfm/recon/pose_params.h"
+
+namespace tagsfm {
+namespace {
+
+PoseParams SomePose(double ax, double ay, double az, const Eigen::Vector3d& t) {
+  const Eigen::Quaterniond q = Eigen::AngleAxisd(ax, Eigen::Vector3d::UnitX()) *
+                               Eigen::AngleAxisd(ay, Eigen::Vector3d::UnitY()) *
+                               Eigen::AngleAxisd(az, Eigen::Vector3d::UnitZ());
+  return PoseParams(Rigid3d(q, t));
+}
+
+// Checks with the quaternion manifolds, as the adjustment uses them; the
+// relative precision 1e-6 is what central differences reach on this scale.
+void ExpectDerivativesMatch(ceres::CostFunction* cost, std::vector<const ceres::Manifold*> manifolds,
+                            std::vector<double*> blocks, double precision = 1e-6) {
+  ceres::NumericDiffOptions numeric;
+  ceres::GradientChecker checker(cost, &manifolds, numeric);
+  ceres::GradientChecker::ProbeResults results;
+  EXPECT_TRUE(checker.Probe(blocks.data(), precision, &results)) << results.error_log;
+  delete cost;
+}
+
+TEST(CostFunctions, ReprojectionErrorDerivatives) {
+  ceres::EigenQuaternionManifold quaternion;
+  PoseParams cam = SomePose(0.1, -0.2, 0.3, {0.1, -0.05, 2.0});
+  double point[3] = {0.2, -0.1, 0.3};
+  ExpectDerivativesMatch(ReprojectionError::Create({0.05, -0.02}, 1000, 1001), {&quaternion, nullptr, nullptr},
+                         {cam.q, cam.t, point});
+}
+
+TEST(CostFunctions, FixedPointReprojectionErrorDerivatives) {
+  ceres::EigenQuaternionManifold quaternion;
+  PoseParams cam = SomePose(-0.3, 0.2, 0.1, {0.0, 0.1, 1.5});
+  ExpectDerivativesMatch(FixedPointReprojectionError::Create({0.01, 0.02}, {0.1, 0.2, 0.3}, 900, 900),
+                         {&quaternion, nullptr}, {cam.q, cam.t});
+}
+
+TEST(CostFunctions, TagCornerReprojectionErrorDerivatives) {
+  ceres::EigenQuaternionManifold quaternion;
+  PoseParams cam = SomePose(0.2, 0.1, -0.1, {0.05, 0.0, 2.5});
+  PoseParams tag = SomePose(1.2, 0.3, 0.4, {0.3, -0.2, 0.5});
+  ExpectDerivativesMatch(TagCornerReprojectionError::Create({0.1, 0.05}, {0.03, -0.03, 0}, 1000, 1000),
+                         {&quaternion, nullptr, &quaternion, nullptr}, {cam.q, cam.t, tag.q, tag.t});
+}
+
+TEST(CostFunctions, TagEdgeLengthErrorDerivativesAndValue) {
+  double a[3] = {0.2, 0.1, 0.3}, b[3] = {0.261, 0.101, 0.3};
+  // The numeric derivative of this steep residual (1/sigma = 1e4) is 1.2e-5
+  // off in relative terms; the analytic one, -(dx/|d|)/sigma = -9998.66, is
+  // the exact value, so the check allows 1e-4 here.
+  ExpectDerivativesMatch(TagEdgeLengthError::Create(0.06, 1e-4), {nullptr, nullptr}, {a, b}, 1e-4);
+  const TagEdgeLengthError error(0.06, 1e-4);
+  double residual = 0;
+  ASSERT_TRUE(error(a, b, &residual));
+  // |b - a| = sqrt(0.061^2 + 0.001^2) = 0.0610082; (0.0610082 - 0.06) / 1e-4 = 10.082.
+  EXPECT_NEAR(residual, 10.082, 1e-3);
+}
+
+TEST(CostFunctions, ReprojectionErrorIsZeroAtTheTruthAndReadsInPixels) {
+  PoseParams cam = SomePose(0.1, 0.2, 0.0, {0.0, 0.0, 2.0});
+  double point[3] = {0.1, 0.2, 0.3};
+  const Eigen::Vector3d in_cam = cam.ToRigid() * Eigen::Vector3d(point[0], point[1], point[2]);
+  const Eigen::Vector2d observed(in_cam.x() / in_cam.z(), in_cam.y() / in_cam.z());
+  double residual[2];
+  ASSERT_TRUE(ReprojectionError(observed, 1000, 800)(cam.q, cam.t, point, residual));
+  EXPECT_NEAR(residual[0], 0, 1e-9);
+  EXPECT_NEAR(residual[1], 0, 1e-9);
+  // An observation 0.001 off in normalised x is 1 px at fx = 1000.
+  ASSERT_TRUE(ReprojectionError(observed + Eigen::Vector2d(0.001, 0.001), 1000, 800)(cam.q, cam.t, point, residual));
+  EXPECT_NEAR(residual[0], -1.0, 1e-9);
+  EXPECT_NEAR(residual[1], -0.8, 1e-9);
+}
+
+}  // namespace
+}  // namespace tagsfm

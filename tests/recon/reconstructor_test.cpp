@@ -1,0 +1,134 @@
+#include "tagsfm/recon/reconstructor.h"
+
+#include <algorithm>
+
+#include <gtest/gtest.h>
+
+#include "tagsfm/recon/alignment.h"
+#include "tagsfm/recon/synthetic_scene.h"
+#include "tagsfm/recon/tag_geometry.h"
+
+namespace tagsfm {
+namespace {
+
+TargetConfig BoxTargets(const SyntheticSceneOptions& options) {
+  TargetConfig config;
+  config.size_m = options.tag_size_m;
+  return config;
+}
+
+ReconstructionResult RunScene(const SyntheticScene& scene, const TargetConfig& targets,
+                         const std::optional<TargetCornerMap>& map, std::vector<FrameReport>* reports = nullptr) {
+  auto recon = Reconstructor::Create(scene.camera, targets, map, {});
+  EXPECT_TRUE(recon.has_value());
+  for (const auto& detections : scene.detections) {
+    const FrameReport report = (*recon)->AddFrame(detections);
+    if (reports) reports->push_back(report);
+  }
+  return (*recon)->Finish();
+}
+
+double Median(std::vector<double> v) {
+  std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+  return v[v.size() / 2];
+}
+
+TEST(Reconstructor, KnownMapGivesTruePosesForEveryFrame) {
+  // Known map, 0.1 px corners: every frame registers; the errors are those
+  // of single-frame PnP (bounds as in PoseEstimator's test).
+  SyntheticSceneOptions options;
+  options.frames = 25;
+  options.noise_px = 0.1;
+  const SyntheticScene scene = MakeSyntheticBoxScene(options);
+  const ReconstructionResult result = RunScene(scene, BoxTargets(options), scene.targets);
+  std::vector<double> rotation, centre;
+  for (size_t i = 0; i < scene.detections.size(); ++i) {
+    const FrameState& f = result.frames[i];
+    if (scene.detections[i].tags.size() < 2) continue;
+    ASSERT_TRUE(f.registered) << "frame " << i << ": " << f.reason;
+    rotation.push_back(RotationAngleDeg(f.cam_from_world.ToRigid().rotation, scene.cam_from_world[i].rotation));
+    centre.push_back((f.cam_from_world.ToRigid().Center() - scene.cam_from_world[i].Center()).norm());
+  }
+  ASSERT_GE(rotation.size(), 20u);
+  EXPECT_LT(Median(rotation), 0.04);
+  EXPECT_LT(*std::max_element(rotation.begin(), rotation.end()), 0.2);
+  EXPECT_LT(Median(centre), 0.003);
+  // Known targets stay exactly where the map put them.
+  for (const auto& [id, corners] : result.Targets()) {
+    for (int k = 0; k < 4; ++k) EXPECT_EQ(corners[k], scene.targets.at(id)[k]);
+  }
+  // 0.1 px noise per axis: the 2D RMS after adjustment is ~0.14 px.
+  EXPECT_NEAR(result.reprojection_rms_px, 0.14, 0.03);
+}
+
+TEST(Reconstructor, WithoutMapRecoversTargetsToScale) {
+  // 40 views, 0.1 px corners. The map is metric from the tags' known size:
+  // after a rigid alignment (no scale) the corners must match the truth to
+  // well under a millimetre, and the scale within 0.1 %.
+  SyntheticSceneOptions options;
+  options.frames = 40;
+  options.noise_px = 0.1;
+  const SyntheticScene scene = MakeSyntheticBoxScene(options);
+  std::vector<FrameReport> reports;
+  const ReconstructionResult result = RunScene(scene, BoxTargets(options), std::nullopt, &reports);
+  std::vector<Eigen::Vector3d> estimate, truth;
+  for (const auto& [id, corners] : result.Targets()) {
+    for (int k = 0; k < 4; ++k) {
+      estimate.push_back(corners[k]);
+      truth.push_back(scene.targets.at(id)[k]);
+    }
+  }
+  // Every tag that two frames saw is in the map.
+  std::map<TagId, int> views;
+  for (const auto& d : scene.detections) {
+    for (const auto& t : d.tags) ++views[t.id];
+  }
+  int seen_twice = 0;
+  for (const auto& [id, n] : views) seen_twice += n >= 2;
+  EXPECT_GE(static_cast<int>(result.tags.size()), seen_twice - 1);
+  const Alignment rigid = AlignPoints(estimate, truth, false);
+  const Alignment similarity = AlignPoints(estimate, truth, true);
+  EXPECT_LT(rigid.rms_m, scene.largest_dimension_m / 5000) << "rigid RMS " << rigid.rms_m;
+  EXPECT_NEAR(similarity.scale, 1.0, 1e-3);
+  EXPECT_LT(result.reprojection_rms_px, 0.2);
+  int registered = 0;
+  for (const auto& f : result.frames) registered += f.registered;
+  EXPECT_GE(registered, static_cast<int>(scene.detections.size()) - 2);
+  // The learned tags' covariance came out of the final adjustment.
+  ASSERT_TRUE(result.covariance.has_value()) << result.covariance_note;
+  EXPECT_EQ(result.covariance->covariance.rows(), 6 * static_cast<int>(result.covariance->ids.size()));
+}
+
+TEST(Reconstructor, FrameWithoutTagsIsUnregisteredWithReason) {
+  SyntheticSceneOptions options;
+  options.frames = 3;
+  const SyntheticScene scene = MakeSyntheticBoxScene(options);
+  auto recon = Reconstructor::Create(scene.camera, BoxTargets(options), scene.targets, {});
+  ASSERT_TRUE(recon.has_value());
+  DetectionSet empty;
+  empty.frame = 5;
+  const FrameReport report = (*recon)->AddFrame(empty);
+  EXPECT_FALSE(report.registered);
+  EXPECT_EQ(report.reason, "no tags detected");
+}
+
+TEST(Reconstructor, CreateRejectsBadInputNamingTheField) {
+  CameraModel camera;
+  camera.width = 640;
+  camera.height = 480;
+  camera.fx = -1;
+  camera.fy = 500;
+  TargetConfig targets;
+  targets.size_m = 0.05;
+  auto bad_camera = Reconstructor::Create(camera, targets, std::nullopt, {});
+  ASSERT_FALSE(bad_camera.has_value());
+  EXPECT_NE(bad_camera.error().message.find("fx"), std::string::npos);
+  camera.fx = 500;
+  targets.size_m = 0;
+  auto bad_size = Reconstructor::Create(camera, targets, std::nullopt, {});
+  ASSERT_FALSE(bad_size.has_value());
+  EXPECT_NE(bad_size.error().message.find("size_m"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace tagsfm
