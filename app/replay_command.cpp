@@ -1,0 +1,211 @@
+// tagsfm replay REC --out OUT: the whole pipeline on a recording, as the live
+// daemon would run it, frame by frame: read, detect tags, reconstruct; then
+// the final adjustment and the result files (docs/recon.md).
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <optional>
+#include <string>
+
+#include <spdlog/spdlog.h>
+
+#include "command_registry.h"
+#include "replay_support.h"
+#include "tagsfm/capture/recording.h"
+#include "tagsfm/recon/camera_calibration.h"
+#include "tagsfm/recon/reconstructor.h"
+#include "tagsfm/recon/result_writer.h"
+
+namespace tagsfm {
+namespace {
+
+struct ReplayArgs {
+  std::string recording;
+  std::string out;
+  std::string targets;
+  bool no_features = false;
+  bool no_targets = false;
+  bool realtime = false;
+};
+
+double MsSince(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+}
+
+// Every frame's detections, for a recording whose intrinsics must first be
+// calibrated from the targets.
+struct Detected {
+  std::optional<DetectionSet> detections;  // nullopt: unreadable frame
+  double detection_ms = 0;
+};
+
+void PrintSummary(const ReconstructionResult& result, const RunStats& stats, const std::string& out) {
+  int registered = 0;
+  for (const auto& f : result.frames) registered += f.registered;
+  std::fprintf(stderr,
+               "\n  frames       %d read, %d skipped (unreadable)\n"
+               "  registered   %d of %d frames\n"
+               "  targets      %zu in the map (%s)\n"
+               "  reprojection %.3f px RMS over %d corner observations\n"
+               "  per frame    %.2f ms p50, %.2f ms p95 (detection aside)\n"
+               "  runtime      %.1f s, peak memory %.0f MB\n"
+               "  results in   %s  (poses.csv, targets.csv, report.json, cloud.ply, colmap/, preview.png)\n\n",
+               stats.frames, stats.frames_skipped, registered, stats.frames - stats.frames_skipped,
+               result.tags.size(), stats.mode.c_str(), result.reprojection_rms_px, result.observations,
+               stats.frame_latency_ms.empty() ? 0.0 : [&] {
+                 auto v = stats.frame_latency_ms;
+                 std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+                 return v[v.size() / 2];
+               }(),
+               stats.frame_latency_ms.empty() ? 0.0 : [&] {
+                 auto v = stats.frame_latency_ms;
+                 const size_t i = std::min(v.size() - 1, static_cast<size_t>(0.95 * v.size()));
+                 std::nth_element(v.begin(), v.begin() + i, v.end());
+                 return v[i];
+               }(),
+               stats.runtime_s, stats.peak_rss_mb, out.c_str());
+}
+
+int RunReplay(const ReplayArgs& args) {
+  const auto start = std::chrono::steady_clock::now();
+  if (args.no_targets) {
+    spdlog::error("--no-targets (feature SfM alone) is not available yet: this build reconstructs from targets only");
+    return 2;
+  }
+  if (args.realtime) {
+    spdlog::error("--realtime (paced replay with the live dashboard) is not available yet");
+    return 2;
+  }
+  auto reader = RecordingReader::Open(args.recording);
+  if (!reader) {
+    spdlog::error("{}", reader.error().message);
+    return 1;
+  }
+  for (const auto& warning : reader->warnings()) spdlog::warn("{}", warning);
+  const RecordingInfo& info = reader->info();
+
+  std::optional<TargetCornerMap> known_map;
+  std::string mode = "no map: targets learned, scale from the tag size";
+  if (!args.targets.empty()) {
+    auto map = ReadTargetsCsv(args.targets);
+    if (!map) {
+      spdlog::error("{}", map.error().message);
+      return 1;
+    }
+    known_map = std::move(*map);
+  } else {
+    auto map = reader->LoadTargetMap();
+    if (!map) {
+      spdlog::error("{}", map.error().message);
+      return 1;
+    }
+    known_map = std::move(*map);
+  }
+  if (known_map && !known_map->empty()) mode = "known map (" + std::to_string(known_map->size()) + " targets held fixed)";
+
+  auto detector = DetectorForRecording(info);
+  if (!detector) {
+    spdlog::error("recording.yaml: targets.family: {}", detector.error().message);
+    return 1;
+  }
+
+  const auto& entries = reader->entries();
+  RunStats stats;
+  stats.frames = static_cast<int>(entries.size());
+  stats.mode = mode;
+  auto detect = [&](size_t i, int* width, int* height) -> std::optional<DetectionSet> {
+    auto frame = reader->LoadFrame(i);
+    if (!frame) {
+      spdlog::warn("skipping frame {}: {}", entries[i].frame, frame.error().message);
+      ++stats.frames_skipped;
+      stats.skipped.emplace_back(entries[i].frame, frame.error().message);
+      return std::nullopt;
+    }
+    stats.image_names[entries[i].frame] = entries[i].file.filename().string();
+    if (width) *width = frame->gray.cols;
+    if (height) *height = frame->gray.rows;
+    const auto t0 = std::chrono::steady_clock::now();
+    auto detections = (*detector)->Detect(frame->gray, entries[i].frame);
+    stats.detection_ms.push_back(MsSince(t0));
+    if (!detections) {
+      spdlog::warn("skipping frame {}: {}", entries[i].frame, detections.error().message);
+      ++stats.frames_skipped;
+      stats.skipped.emplace_back(entries[i].frame, detections.error().message);
+      return std::nullopt;
+    }
+    return std::move(*detections);
+  };
+
+  // Without a camera block the intrinsics come from the targets first.
+  std::vector<std::optional<DetectionSet>> cached;
+  CameraModel camera;
+  if (info.camera) {
+    camera = *info.camera;
+  } else {
+    ProgressLine progress("detect", entries.size());
+    int width = 0, height = 0;
+    for (size_t i = 0; i < entries.size(); ++i) {
+      cached.push_back(detect(i, &width, &height));
+      progress.Update(i + 1);
+    }
+    progress.Done();
+    std::vector<DetectionSet> sets;
+    for (const auto& c : cached) {
+      if (c) sets.push_back(*c);
+    }
+    auto calibration = CalibrateFromTargets(sets, info.targets, width, height, known_map, {});
+    if (!calibration) {
+      spdlog::error("{}: no camera block, and {}", (reader->dir() / "recording.yaml").string(),
+                    calibration.error().message);
+      return 1;
+    }
+    camera = calibration->camera;
+    spdlog::info("no camera block: calibrated from {} tag views, fx {:.1f} fy {:.1f} cx {:.1f} cy {:.1f}, {:.3f} px RMS",
+                 calibration->views, camera.fx, camera.fy, camera.cx, camera.cy, calibration->rms_px);
+  }
+
+  auto recon = Reconstructor::Create(camera, info.targets, known_map, {});
+  if (!recon) {
+    spdlog::error("{}: {}", (reader->dir() / "recording.yaml").string(), recon.error().message);
+    return 1;
+  }
+  ProgressLine progress("replay", entries.size());
+  for (size_t i = 0; i < entries.size(); ++i) {
+    std::optional<DetectionSet> detections = cached.empty() ? detect(i, nullptr, nullptr) : std::move(cached[i]);
+    if (detections) {
+      const auto t0 = std::chrono::steady_clock::now();
+      (*recon)->AddFrame(*detections);
+      stats.frame_latency_ms.push_back(MsSince(t0));
+    }
+    progress.Update(i + 1);
+  }
+  progress.Done();
+  const ReconstructionResult result = (*recon)->Finish();
+  stats.runtime_s = MsSince(start) / 1000.0;
+  stats.peak_rss_mb = PeakRssMb();
+  if (Status s = WriteResults(args.out, result, stats); !s) {
+    spdlog::error("{}", s.error().message);
+    return 1;
+  }
+  if (StderrIsTerminal()) {
+    PrintSummary(result, stats, args.out);
+  }
+  return 0;
+}
+
+void AddReplayCommand(CLI::App& app, int& exit_code) {
+  auto args = std::make_shared<ReplayArgs>();
+  CLI::App* cmd = app.add_subcommand("replay", "run the pipeline on a recording and write the results");
+  cmd->add_option("recording", args->recording, "recording folder (recording.yaml, frames.csv, frames/)")->required();
+  cmd->add_option("--out", args->out, "output folder for the results")->required();
+  cmd->add_option("--targets", args->targets, "known target map (targets.csv), overriding the recording's");
+  cmd->add_flag("--no-features", args->no_features, "targets only (photogrammetry alone)");
+  cmd->add_flag("--no-targets", args->no_targets, "feature SfM alone (not available yet)");
+  cmd->add_flag("--realtime", args->realtime, "pace frames at their timestamps and serve the dashboard (not available yet)");
+  cmd->callback([args, &exit_code] { exit_code = RunReplay(*args); });
+}
+
+const bool kRegistered = RegisterCommand("replay", &AddReplayCommand);
+
+}  // namespace
+}  // namespace tagsfm
