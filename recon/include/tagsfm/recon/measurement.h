@@ -1,0 +1,35 @@
+#pragma once
+// Distances between targets of a result, with their standard deviation
+// propagated from the final adjustment's covariance of the tags' poses.
+#include <optional>
+#include <string>
+
+#include <Eigen/Core>
+
+#include "tagsfm/core/csv_formats.h"
+#include "tagsfm/core/result.h"
+#include "tagsfm/recon/reconstruction.h"
+
+namespace tagsfm {
+
+// "12" is tag 12's centre, "12:3" its corner 3 (libapriltag's order).
+struct TargetPointRef {
+  TagId tag = -1;
+  int corner = -1;  // -1: the centre
+  std::string ToString() const;
+};
+Result<TargetPointRef> ParseTargetPointRef(const std::string& text);
+
+struct Measurement {
+  Eigen::Vector3d a = Eigen::Vector3d::Zero(), b = Eigen::Vector3d::Zero();
+  double distance_m = 0;
+  std::optional<double> sigma_m;  // absent without a covariance
+  std::string note;               // e.g. which tags were held fixed
+};
+
+// `covariance` is the result's learned-tag covariance (targets_cov.csv);
+// tags not in it (a known map's, the anchor) count as exact.
+Result<Measurement> MeasureDistance(const TargetCornerMap& targets, const std::optional<TagCovariance>& covariance,
+                                    const TargetPointRef& a, const TargetPointRef& b);
+
+}  // namespace tagsfm

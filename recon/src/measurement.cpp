@@ -1,0 +1,94 @@
+#include "tagsfm/recon/measurement.h"
+
+#include <cmath>
+
+#include "tagsfm/core/file_util.h"
+#include "tagsfm/recon/tag_geometry.h"
+
+namespace tagsfm {
+namespace {
+
+Eigen::Matrix3d Skew(const Eigen::Vector3d& v) {
+  Eigen::Matrix3d m;
+  m << 0, -v.z(), v.y(), v.z(), 0, -v.x(), -v.y(), v.x(), 0;
+  return m;
+}
+
+Eigen::Vector3d PointOf(const TagCorners& corners, int corner) {
+  return corner < 0 ? TagCenter(corners) : corners[static_cast<size_t>(corner)];
+}
+
+}  // namespace
+
+std::string TargetPointRef::ToString() const {
+  return corner < 0 ? "tag " + std::to_string(tag) : "tag " + std::to_string(tag) + " corner " + std::to_string(corner);
+}
+
+Result<TargetPointRef> ParseTargetPointRef(const std::string& text) {
+  TargetPointRef ref;
+  const size_t colon = text.find(':');
+  long long id = 0, corner = -1;
+  if (!ParseInt64(text.substr(0, colon), &id) ||
+      (colon != std::string::npos && (!ParseInt64(text.substr(colon + 1), &corner) || corner < 0 || corner > 3))) {
+    return MakeError("'" + text + "' is not a target: give a tag id (its centre) or ID:CORNER with corner 0-3");
+  }
+  ref.tag = static_cast<TagId>(id);
+  ref.corner = static_cast<int>(corner);
+  return ref;
+}
+
+Result<Measurement> MeasureDistance(const TargetCornerMap& targets, const std::optional<TagCovariance>& covariance,
+                                    const TargetPointRef& a, const TargetPointRef& b) {
+  auto ia = targets.find(a.tag), ib = targets.find(b.tag);
+  if (ia == targets.end()) return MakeError("tag " + std::to_string(a.tag) + " is not in the result's targets");
+  if (ib == targets.end()) return MakeError("tag " + std::to_string(b.tag) + " is not in the result's targets");
+  Measurement m;
+  m.a = PointOf(ia->second, a.corner);
+  m.b = PointOf(ib->second, b.corner);
+  const Eigen::Vector3d diff = m.a - m.b;
+  m.distance_m = diff.norm();
+  if (!covariance) {
+    m.note = "no covariance in the result (targets_cov.csv): standard deviation unknown";
+    return m;
+  }
+  // Point p = R c + t of a tag pose perturbed on the left by the rotation
+  // 2*delta (Ceres' EigenQuaternionManifold) and by dt: dp = -2 [R c]x delta + dt.
+  auto jacobian = [](const TagCorners& corners, const Eigen::Vector3d& point) {
+    Eigen::Matrix<double, 3, 6> j;
+    j.leftCols<3>() = -2.0 * Skew(point - TagCenter(corners));
+    j.rightCols<3>() = Eigen::Matrix3d::Identity();
+    return j;
+  };
+  auto index_of = [&covariance](TagId id) -> int {
+    for (size_t i = 0; i < covariance->ids.size(); ++i) {
+      if (covariance->ids[i] == id) return static_cast<int>(i);
+    }
+    return -1;
+  };
+  const Eigen::RowVector3d u = m.distance_m > 0 ? Eigen::RowVector3d((diff / m.distance_m).transpose()) : Eigen::RowVector3d::Zero();
+  struct Term {
+    int index;
+    Eigen::Matrix<double, 1, 6> gradient;
+  };
+  std::vector<Term> terms;
+  std::vector<std::string> fixed;
+  const int index_a = index_of(a.tag), index_b = index_of(b.tag);
+  if (index_a >= 0) terms.push_back({index_a, u * jacobian(ia->second, m.a)});
+  else fixed.push_back(std::to_string(a.tag));
+  if (index_b >= 0) terms.push_back({index_b, -u * jacobian(ib->second, m.b)});
+  else if (b.tag != a.tag) fixed.push_back(std::to_string(b.tag));
+  double variance = 0;
+  for (const auto& s : terms) {
+    for (const auto& t : terms) {
+      variance += (s.gradient * covariance->covariance.block<6, 6>(6 * s.index, 6 * t.index) * t.gradient.transpose())(0, 0);
+    }
+  }
+  m.sigma_m = std::sqrt(std::max(variance, 0.0));
+  if (!fixed.empty()) {
+    m.note = "held fixed in the adjustment (known map or the world's anchor): tag";
+    for (const auto& id : fixed) m.note += " " + id;
+  }
+  return m;
+}
+
+}  // namespace tagsfm
