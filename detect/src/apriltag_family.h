@@ -7,6 +7,7 @@
 #include <apriltag/apriltag.h>
 
 #include "tagsfm/core/result.h"
+#include "tagsfm/detect/tag_layout.h"
 
 namespace tagsfm::detail {
 
@@ -21,5 +22,8 @@ using FamilyPtr = std::unique_ptr<apriltag_family_t, FamilyDeleter>;
 // A fresh family instance (libapriltag keeps per-detector decode tables in a
 // family, so one instance serves one detector). Unknown name: an error.
 Result<FamilyPtr> CreateAprilTagFamily(const std::string& name);
+
+// The module layout of code `id` (0 <= id < ncodes) of the family.
+TagLayout LayoutOf(apriltag_family_t* family, TagId id);
 
 }  // namespace tagsfm::detail

@@ -1,199 +1,311 @@
 // Corner refinement by fitting the four outer edges of the tag's square.
 //
 // Why edges rather than corners: a corner's position is decided by a few
-// pixels around it, an edge line by every pixel along it, so averaging over
-// ~20 profiles per edge divides the noise by ~4, and a blurred step's
-// gradient centroid is an unbiased estimate of the edge position whatever the
-// (symmetric) blur, as long as the window is symmetric about the edge: hence
-// the re-centring iterations.
+// pixels around it, an edge line by every pixel along it, which divides the
+// noise by ~4 on a small tag. Why a model rather than gradient centroids: on
+// small, blurred tags (3 px modules, blur 0.7 px) the border's inner edge,
+// one module in, overlaps the outer one wherever the data module behind the
+// border is white, and pulls a centroid outward by up to 0.1 px. The decoded
+// tag's layout says where those white modules are, so each edge is fitted
+// with a model of the blurred outer step plus the blurred white modules
+// behind the border (see EdgeModel), by Levenberg-Marquardt on the pixels of
+// a band around the edge.
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <vector>
 
-#include <Eigen/Eigenvalues>
+#include <Eigen/Dense>
 
 #include "tagsfm/detect/corner_refinement.h"
+#include "tagsfm/detect/tag_layout.h"
 
 namespace tagsfm {
 namespace {
 
-// Bilinear interpolation, pixel centres at integers; false outside the image.
-bool SampleBilinear(const cv::Mat& image, double x, double y, double* value) {
-  if (!(x >= 0.0 && y >= 0.0 && x <= image.cols - 1.0 && y <= image.rows - 1.0)) return false;
-  const int x0 = std::min(static_cast<int>(x), image.cols - 2 < 0 ? 0 : image.cols - 2);
-  const int y0 = std::min(static_cast<int>(y), image.rows - 2 < 0 ? 0 : image.rows - 2);
-  const double fx = x - x0;
-  const double fy = y - y0;
-  const int x1 = std::min(x0 + 1, image.cols - 1);
-  const int y1 = std::min(y0 + 1, image.rows - 1);
-  const uchar* row0 = image.ptr<uchar>(y0);
-  const uchar* row1 = image.ptr<uchar>(y1);
-  const double top = row0[x0] + fx * (row0[x1] - row0[x0]);
-  const double bottom = row1[x0] + fx * (row1[x1] - row1[x0]);
-  *value = top + fy * (bottom - top);
+double NormalCdf(double x) { return 0.5 * std::erfc(-x * M_SQRT1_2); }
+double NormalPdf(double x) { return 0.3989422804014327 * std::exp(-0.5 * x * x); }
+
+// One pixel of the band around an edge.
+struct BandPixel {
+  Eigen::Vector2d position;  // pixel centre, image coordinates
+  double value = 0.0;        // grey level
+  double u = 0.0;            // position along the edge, modules from its start
+  double inner_px = 0.0;     // the border's width (one module) across the edge here, px
+  double along_px = 0.0;     // one module along the edge here, px
+};
+
+// The edge's parameters: outward normal at angle theta, n . x = rho; grey
+// levels of the border and of the outside; blur sigma in px.
+struct EdgeParams {
+  double theta = 0.0;
+  double rho = 0.0;
+  double border = 0.0;
+  double outside = 0.0;
+  double sigma = 0.8;
+};
+
+// Model of the grey level at a band pixel: border + (outside - border) * g,
+// g = Phi(d / sigma) for the outer step (d: signed distance outside the
+// edge) plus the modules of the kRows rows behind the border (row r at
+// depths r+1 to r+2 modules) that have the outside's shade, each blurred
+// across and along the edge (a separable Gaussian of a rectangle is a product
+// of two blurred steps). One row, with the band 1.5 modules deep, measured
+// best: a second row (band 2 modules deep) added bias on 2.5 px modules.
+class EdgeModel {
+ public:
+  static constexpr int kRows = 1;
+  // rows[r][k]: module k of row r + 1 behind the border has the outside's shade.
+  explicit EdgeModel(std::array<std::vector<bool>, kRows> rows) : rows_(std::move(rows)) {}
+
+  // Value and derivatives with respect to (theta, rho, border, outside, sigma).
+  double Evaluate(const BandPixel& p, const EdgeParams& e, Eigen::Matrix<double, 5, 1>* jacobian) const {
+    const Eigen::Vector2d normal(std::cos(e.theta), std::sin(e.theta));
+    const Eigen::Vector2d tangent(-normal.y(), normal.x());
+    const double d = normal.dot(p.position) - e.rho;
+    const double s = e.sigma;
+    const double a = d / s;
+    double g = NormalCdf(a);
+    double dg_dd = NormalPdf(a) / s;
+    double dg_ds = -a * NormalPdf(a) / s;
+    for (int r = 0; r < kRows; ++r) {
+      const double shade = RowShade(rows_[r], p.u, s / p.along_px);
+      if (shade == 0.0) continue;
+      const double b0 = (d + (r + 1) * p.inner_px) / s;  // the row's outer and inner boundaries
+      const double b1 = (d + (r + 2) * p.inner_px) / s;
+      g += shade * (NormalCdf(-b0) - NormalCdf(-b1));
+      dg_dd += shade * (NormalPdf(b1) - NormalPdf(b0)) / s;
+      dg_ds += shade * (b0 * NormalPdf(b0) - b1 * NormalPdf(b1)) / s;
+    }
+    const double contrast = e.outside - e.border;
+    if (jacobian != nullptr) {
+      (*jacobian)(0) = contrast * dg_dd * tangent.dot(p.position);
+      (*jacobian)(1) = -contrast * dg_dd;
+      (*jacobian)(2) = 1.0 - g;
+      (*jacobian)(3) = g;
+      (*jacobian)(4) = contrast * dg_ds;
+    }
+    return e.border + contrast * g;
+  }
+
+ private:
+  // Blurred indicator, along the edge, of a row's outside-shade modules.
+  static double RowShade(const std::vector<bool>& row, double u, double sigma_modules) {
+    double shade = 0.0;
+    const int first = std::max(0, static_cast<int>(std::floor(u - 4.0 * sigma_modules)) - 1);
+    const int last = std::min(static_cast<int>(row.size()) - 1, static_cast<int>(u + 4.0 * sigma_modules) + 1);
+    for (int k = first; k <= last; ++k) {
+      if (!row[k]) continue;
+      shade += NormalCdf((u - k) / sigma_modules) - NormalCdf((u - k - 1) / sigma_modules);
+    }
+    return shade;
+  }
+
+  std::array<std::vector<bool>, kRows> rows_;
+};
+
+// Levenberg-Marquardt on the band's pixels.
+bool FitEdgeModel(const std::vector<BandPixel>& band, const EdgeModel& model, EdgeParams* params) {
+  if (band.size() < 12) return false;
+  double lambda = 1e-3;
+  auto cost_of = [&](const EdgeParams& e) {
+    double cost = 0.0;
+    for (const BandPixel& p : band) {
+      const double r = model.Evaluate(p, e, nullptr) - p.value;
+      cost += r * r;
+    }
+    return cost;
+  };
+  double cost = cost_of(*params);
+  for (int iteration = 0; iteration < 15; ++iteration) {
+    Eigen::Matrix<double, 5, 5> normal_matrix = Eigen::Matrix<double, 5, 5>::Zero();
+    Eigen::Matrix<double, 5, 1> gradient = Eigen::Matrix<double, 5, 1>::Zero();
+    Eigen::Matrix<double, 5, 1> j;
+    for (const BandPixel& p : band) {
+      const double r = model.Evaluate(p, *params, &j) - p.value;
+      normal_matrix += j * j.transpose();
+      gradient += j * r;
+    }
+    bool improved = false;
+    for (int attempt = 0; attempt < 6 && !improved; ++attempt) {
+      Eigen::Matrix<double, 5, 5> damped = normal_matrix;
+      damped.diagonal() *= 1.0 + lambda;
+      const Eigen::Matrix<double, 5, 1> step = damped.ldlt().solve(-gradient);
+      if (!step.allFinite()) return false;
+      EdgeParams next = *params;
+      next.theta += step(0);
+      next.rho += step(1);
+      next.border += step(2);
+      next.outside += step(3);
+      next.sigma = std::clamp(next.sigma + step(4), 0.2, 10.0);
+      const double next_cost = cost_of(next);
+      if (next_cost < cost) {
+        const bool converged = std::abs(step(1)) < 1e-5 && std::abs(step(0)) < 1e-7;
+        *params = next;
+        cost = next_cost;
+        lambda = std::max(1e-7, lambda * 0.3);
+        improved = true;
+        if (converged) return true;
+      } else {
+        lambda *= 10.0;
+      }
+    }
+    if (!improved) return true;  // no step lowers the cost: at the minimum
+  }
   return true;
 }
 
-struct EdgePoint {
-  Eigen::Vector2d position;
-  double weight = 0.0;
-};
+// The pixels of edge i's band: from 0.8 module outside the edge to 2
+// modules inside (the border and the row behind it), clear of the corners.
+std::vector<BandPixel> CollectBand(const cv::Mat& image, const Eigen::Matrix3d& image_from_square, int n, int i,
+                                   double end_margin_modules) {
+  const Eigen::Matrix3d square_from_image = image_from_square.inverse();
+  const QuadCorners square = CornerSquareCorners(n);
+  const Eigen::Vector2d start = square[i];
+  const Eigen::Vector2d along = (square[(i + 1) % 4] - start) / n;
+  const Eigen::Vector2d center(0.5 * n, 0.5 * n);
+  const Eigen::Vector2d inward = (center - 0.5 * (start + square[(i + 1) % 4])) / (0.5 * n);
+  constexpr double kOutside = 0.8, kInside = 1.5;
+  auto to_image = [&](const Eigen::Vector2d& q) { return (image_from_square * q.homogeneous()).hnormalized().eval(); };
 
-// Weighted total-least-squares line through the points; normal oriented like
-// `normal_hint`.
-bool FitLine(const std::vector<EdgePoint>& points, const Eigen::Vector2d& normal_hint, EdgeLine* line) {
-  double weight_sum = 0.0;
-  Eigen::Vector2d mean = Eigen::Vector2d::Zero();
-  for (const EdgePoint& p : points) {
-    weight_sum += p.weight;
-    mean += p.weight * p.position;
+  double x_min = 1e18, x_max = -1e18, y_min = 1e18, y_max = -1e18;
+  for (double u : {end_margin_modules, n - end_margin_modules}) {
+    for (double v : {-kOutside, kInside}) {
+      const Eigen::Vector2d p = to_image(start + u * along + v * inward);
+      x_min = std::min(x_min, p.x());
+      x_max = std::max(x_max, p.x());
+      y_min = std::min(y_min, p.y());
+      y_max = std::max(y_max, p.y());
+    }
   }
-  if (points.size() < 3 || !(weight_sum > 0.0)) return false;
-  mean /= weight_sum;
-  Eigen::Matrix2d scatter = Eigen::Matrix2d::Zero();
-  for (const EdgePoint& p : points) {
-    const Eigen::Vector2d d = p.position - mean;
-    scatter += p.weight * d * d.transpose();
+  std::vector<BandPixel> band;
+  const int x0 = std::max(0, static_cast<int>(std::floor(x_min)));
+  const int x1 = std::min(image.cols - 1, static_cast<int>(std::ceil(x_max)));
+  const int y0 = std::max(0, static_cast<int>(std::floor(y_min)));
+  const int y1 = std::min(image.rows - 1, static_cast<int>(std::ceil(y_max)));
+  if (x1 < x0 || y1 < y0 || (x1 - x0 + 1) * (y1 - y0 + 1) > 200000) return band;
+  for (int y = y0; y <= y1; ++y) {
+    const uchar* row = image.ptr<uchar>(y);
+    for (int x = x0; x <= x1; ++x) {
+      const Eigen::Vector2d pixel(x, y);
+      const Eigen::Vector2d q = (square_from_image * pixel.homogeneous()).hnormalized();
+      const double u = (q - start).dot(along);
+      const double v = (q - start).dot(inward);
+      if (u < end_margin_modules || u > n - end_margin_modules || v < -kOutside || v > kInside) continue;
+      BandPixel p;
+      p.position = pixel;
+      p.value = row[x];
+      p.u = u;
+      const Eigen::Vector2d on_edge = to_image(start + u * along);
+      p.inner_px = (to_image(start + u * along + inward) - on_edge).norm();
+      p.along_px = (to_image(start + (u + 0.5) * along) - to_image(start + (u - 0.5) * along)).norm();
+      band.push_back(p);
+    }
   }
-  Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> solver(scatter);
-  Eigen::Vector2d normal = solver.eigenvectors().col(0);  // smallest eigenvalue: across the line
-  if (normal.dot(normal_hint) < 0.0) normal = -normal;
-  line->normal = normal;
-  line->offset = normal.dot(mean);
-  return true;
+  return band;
 }
 
-struct EdgeFitSettings {
-  double half_window_px;  // profile half-length across the edge
-  double step_px = 0.25;  // profile sampling step
-  double end_margin_px;   // stay this far from the corners along the edge
-  int max_profiles = 64;  // profiles per edge (caps the cost on large tags)
-  int iterations = 3;
-};
-
-// Sub-pixel edge positions along `profiles` normals to the current line.
-// polarity +1: brighter outside (a black square on white), -1: the reverse,
-// 0: either (used once, to find out which).
-struct ProfileScan {
-  std::vector<EdgePoint> points;
-  double signed_gradient_sum = 0.0;
-};
-
-ProfileScan ScanProfiles(const cv::Mat& image, const Eigen::Vector2d& from, const Eigen::Vector2d& along,
-                         double usable, int profiles, const EdgeFitSettings& settings, const EdgeLine& line,
-                         double polarity) {
-  const int samples = static_cast<int>(std::lround(2.0 * settings.half_window_px / settings.step_px)) + 1;
-  std::vector<double> profile(samples);
-  ProfileScan scan;
-  scan.points.reserve(profiles);
-  for (int j = 0; j < profiles; ++j) {
-    const double t = settings.end_margin_px + usable * (j + 0.5) / profiles;
-    Eigen::Vector2d base = from + t * along;
-    base -= (line.normal.dot(base) - line.offset) * line.normal;  // onto the current line
-    bool inside = true;
-    for (int k = 0; k < samples && inside; ++k) {
-      const Eigen::Vector2d p = base + (-settings.half_window_px + k * settings.step_px) * line.normal;
-      inside = SampleBilinear(image, p.x(), p.y(), &profile[k]);
+// Which modules of the rows behind edge i have the outside's shade.
+std::array<std::vector<bool>, EdgeModel::kRows> RowsBehindEdge(const TagLayout& layout, int i) {
+  const int n = layout.modules_across;
+  const QuadCorners square = CornerSquareCorners(n);
+  const Eigen::Vector2d start = square[i];
+  const Eigen::Vector2d along = (square[(i + 1) % 4] - start) / n;
+  const Eigen::Vector2d center(0.5 * n, 0.5 * n);
+  const Eigen::Vector2d inward = (center - 0.5 * (start + square[(i + 1) % 4])) / (0.5 * n);
+  std::array<std::vector<bool>, EdgeModel::kRows> rows;
+  for (int r = 0; r < EdgeModel::kRows; ++r) {
+    rows[r].assign(n, false);
+    for (int k = 0; k < n; ++k) {
+      const Eigen::Vector2d q = start + (k + 0.5) * along + (r + 1.5) * inward;
+      rows[r][k] = !layout.like_border.empty() &&
+                   !layout.LikeBorder(static_cast<int>(std::floor(q.x())), static_cast<int>(std::floor(q.y())));
     }
-    if (!inside) continue;
-    double moment = 0.0;
-    double mass = 0.0;
-    for (int k = 1; k + 1 < samples; ++k) {
-      const double gradient = profile[k + 1] - profile[k - 1];
-      scan.signed_gradient_sum += gradient;
-      // Only the expected polarity: opposite-signed edges nearby (the
-      // border's inner edge, a dark background) must not pull the centroid.
-      const double g = polarity == 0.0 ? std::abs(gradient) : std::max(0.0, polarity * gradient);
-      moment += g * (-settings.half_window_px + k * settings.step_px);
-      mass += g;
-    }
-    if (mass <= 0.0) continue;
-    scan.points.push_back({base + (moment / mass) * line.normal, mass});
   }
-  return scan;
-}
-
-// Fits one edge from `from` to `to`, starting from `line`.
-bool FitEdge(const cv::Mat& image, const Eigen::Vector2d& from, const Eigen::Vector2d& to,
-             const EdgeFitSettings& settings, EdgeLine* line) {
-  const double length = (to - from).norm();
-  const double usable = length - 2.0 * settings.end_margin_px;
-  if (!(usable > 2.0)) return false;
-  const int profiles = std::clamp(static_cast<int>(usable), 4, settings.max_profiles);
-  const Eigen::Vector2d along = (to - from) / length;
-
-  const ProfileScan first = ScanProfiles(image, from, along, usable, profiles, settings, *line, 0.0);
-  if (first.points.size() < 3) return false;
-  const double polarity = first.signed_gradient_sum >= 0.0 ? 1.0 : -1.0;
-  for (int iteration = 0; iteration < settings.iterations; ++iteration) {
-    const ProfileScan scan = ScanProfiles(image, from, along, usable, profiles, settings, *line, polarity);
-    if (scan.points.size() < 3) return false;
-    EdgeLine fitted = *line;
-    if (!FitLine(scan.points, line->normal, &fitted)) return false;
-    // Drop profiles hit by something else (a specular spot, an occluder).
-    std::vector<double> residuals;
-    for (const EdgePoint& p : scan.points) residuals.push_back(std::abs(fitted.normal.dot(p.position) - fitted.offset));
-    std::vector<double> sorted = residuals;
-    std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());
-    const double limit = std::max(0.1, 4.0 * 1.4826 * sorted[sorted.size() / 2]);
-    std::vector<EdgePoint> kept;
-    for (size_t i = 0; i < scan.points.size(); ++i) {
-      if (residuals[i] <= limit) kept.push_back(scan.points[i]);
-    }
-    if (!FitLine(kept, line->normal, &fitted)) return false;
-    *line = fitted;
-  }
-  return true;
+  return rows;
 }
 
 bool Intersect(const EdgeLine& a, const EdgeLine& b, Eigen::Vector2d* point) {
   Eigen::Matrix2d normals;
   normals << a.normal.transpose(), b.normal.transpose();
-  const double det = normals.determinant();
-  if (std::abs(det) < 1e-3) return false;  // nearly parallel edges: no reliable corner
+  if (std::abs(normals.determinant()) < 1e-3) return false;  // nearly parallel: no reliable corner
   *point = normals.inverse() * Eigen::Vector2d(a.offset, b.offset);
   return true;
 }
 
+// Robust start for the grey levels: low and high percentiles of the band.
+void StartLevels(const std::vector<BandPixel>& band, EdgeParams* params) {
+  std::vector<double> values;
+  values.reserve(band.size());
+  for (const BandPixel& p : band) values.push_back(p.value);
+  std::sort(values.begin(), values.end());
+  const double low = values[values.size() / 10];
+  const double high = values[values.size() * 9 / 10];
+  // Which of the two is the border's is decided by the mean value outside.
+  double outside_sum = 0.0;
+  int outside_count = 0;
+  for (const BandPixel& p : band) {
+    if (Eigen::Vector2d(std::cos(params->theta), std::sin(params->theta)).dot(p.position) - params->rho > 0.5) {
+      outside_sum += p.value;
+      ++outside_count;
+    }
+  }
+  const bool bright_outside = outside_count == 0 || outside_sum / outside_count > 0.5 * (low + high);
+  params->border = bright_outside ? low : high;
+  params->outside = bright_outside ? high : low;
+}
+
 }  // namespace
 
-bool RefineCornersByEdgeLines(const cv::Mat& gray8, int modules_across, QuadCorners* corners) {
-  if (gray8.empty() || gray8.type() != CV_8UC1 || modules_across <= 0) return false;
+bool RefineCornersByEdgeLines(const cv::Mat& gray8, const TagLayout& layout, QuadCorners* corners) {
+  const int n = layout.modules_across;
+  if (gray8.empty() || gray8.type() != CV_8UC1 || n <= 0) return false;
+  if (!layout.like_border.empty() && layout.like_border.size() != static_cast<size_t>(n * n)) return false;
   const QuadCorners initial = *corners;
-  const Eigen::Vector2d center = 0.25 * (initial[0] + initial[1] + initial[2] + initial[3]);
   double mean_side = 0.0;
   for (int i = 0; i < 4; ++i) mean_side += 0.25 * (initial[(i + 1) % 4] - initial[i]).norm();
-  const double module_px = mean_side / modules_across;
+  const double module_px = mean_side / n;
+  // Stay ~2.5 px clear of the corners, where the adjacent edge's blur and
+  // the start's error reach.
+  const double end_margin_modules = std::clamp(2.5 / module_px, 0.5, 0.25 * n);
 
-  EdgeFitSettings settings;
-  // Inside a one-module black border, outside at least a one-module white
-  // margin: a window of 0.8 module keeps other edges out but the blurred step in.
-  settings.half_window_px = std::clamp(0.8 * module_px, 1.25, 8.0);
-  // The adjacent edge's blur reaches ~2 px (plus the start's error) along this one.
-  settings.end_margin_px = std::max(2.5, 0.08 * mean_side);
-
-  std::array<EdgeLine, 4> lines;  // edge i runs from corner i to corner i+1
-  for (int i = 0; i < 4; ++i) {
-    const Eigen::Vector2d& from = initial[i];
-    const Eigen::Vector2d& to = initial[(i + 1) % 4];
-    const Eigen::Vector2d along = (to - from).normalized();
-    Eigen::Vector2d normal(-along.y(), along.x());
-    if (normal.dot(0.5 * (from + to) - center) < 0.0) normal = -normal;
-    lines[i].normal = normal;
-    lines[i].offset = normal.dot(from);
-    if (!FitEdge(gray8, from, to, settings, &lines[i])) return false;
-  }
-  QuadCorners refined;
-  for (int i = 0; i < 4; ++i) {
-    if (!Intersect(lines[(i + 3) % 4], lines[i], &refined[i])) return false;
+  QuadCorners current = initial;
+  std::array<EdgeParams, 4> params;
+  // Twice: the second pass samples the band and places the row behind the
+  // border from the better corners of the first.
+  for (int pass = 0; pass < 2; ++pass) {
+    const std::optional<Eigen::Matrix3d> image_from_square = HomographyFrom4(CornerSquareCorners(n), current);
+    if (!image_from_square) return false;
+    const Eigen::Vector2d center = 0.25 * (current[0] + current[1] + current[2] + current[3]);
+    std::array<EdgeLine, 4> lines;
+    for (int i = 0; i < 4; ++i) {
+      const std::vector<BandPixel> band = CollectBand(gray8, *image_from_square, n, i, end_margin_modules);
+      if (band.size() < 12) return false;
+      EdgeParams& e = params[i];
+      if (pass == 0) {
+        const Eigen::Vector2d from = current[i], to = current[(i + 1) % 4];
+        Eigen::Vector2d normal = Eigen::Vector2d(-(to - from).y(), (to - from).x()).normalized();
+        if (normal.dot(0.5 * (from + to) - center) < 0.0) normal = -normal;
+        e.theta = std::atan2(normal.y(), normal.x());
+        e.rho = normal.dot(from);
+        e.sigma = 0.8;
+        StartLevels(band, &e);
+      }
+      if (!FitEdgeModel(band, EdgeModel(RowsBehindEdge(layout, i)), &e)) return false;
+      lines[i].normal = Eigen::Vector2d(std::cos(e.theta), std::sin(e.theta));
+      lines[i].offset = e.rho;
+    }
+    for (int i = 0; i < 4; ++i) {
+      if (!Intersect(lines[(i + 3) % 4], lines[i], &current[i])) return false;
+    }
   }
   // A refinement that moves a corner by more than half a module has locked
   // onto something else; the start is then the better answer.
   const double max_move = std::max(1.5, 0.5 * module_px);
   for (int i = 0; i < 4; ++i) {
-    if (!((refined[i] - initial[i]).norm() <= max_move)) return false;
+    if (!((current[i] - initial[i]).norm() <= max_move)) return false;
   }
-  *corners = refined;
+  *corners = current;
   return true;
 }
 

@@ -6,10 +6,10 @@
 #include <random>
 
 #include <Eigen/Geometry>
-#include <Eigen/LU>
 #include <opencv2/imgproc.hpp>
 
 #include "apriltag_family.h"
+#include "tagsfm/detect/tag_layout.h"
 
 namespace tagsfm {
 namespace {
@@ -18,25 +18,9 @@ struct ImageU8Deleter {
   void operator()(image_u8_t* image) const { image_u8_destroy(image); }
 };
 
-// The homography mapping the four `from` points onto `to` (exact, in double
-// precision: the truth of the accuracy tests rests on it).
-std::optional<Eigen::Matrix3d> HomographyFrom4(const QuadCorners& from, const QuadCorners& to) {
-  Eigen::Matrix<double, 8, 8> a;
-  Eigen::Matrix<double, 8, 1> b;
-  for (int k = 0; k < 4; ++k) {
-    const double x = from[k].x(), y = from[k].y(), u = to[k].x(), v = to[k].y();
-    a.row(2 * k) << x, y, 1, 0, 0, 0, -u * x, -u * y;
-    a.row(2 * k + 1) << 0, 0, 0, x, y, 1, -v * x, -v * y;
-    b(2 * k) = u;
-    b(2 * k + 1) = v;
-  }
-  Eigen::FullPivLU<Eigen::Matrix<double, 8, 8>> lu(a);
-  if (!lu.isInvertible()) return std::nullopt;
-  const Eigen::Matrix<double, 8, 1> h = lu.solve(b);
-  Eigen::Matrix3d m;
-  m << h(0), h(1), h(2), h(3), h(4), h(5), h(6), h(7), 1.0;
-  return m;
-}
+// Fibonacci lattice: 987 points, the i-th at ((i + 0.5) / 987, frac((610 i + 0.5) / 987)).
+constexpr int kFineSamples = 987;
+constexpr int kFibonacciStep = 610;
 
 }  // namespace
 
@@ -60,8 +44,7 @@ Result<cv::Mat> RenderTags(const std::string& family_name, int width, int height
     // Corner-square coordinates (modules, x right, y down, origin at the
     // square's top-left) of libapriltag's corners 0..3: bottom-left,
     // bottom-right, top-right, top-left.
-    const QuadCorners square{Eigen::Vector2d(0, across), Eigen::Vector2d(across, across),
-                             Eigen::Vector2d(across, 0), Eigen::Vector2d(0, 0)};
+    const QuadCorners square = CornerSquareCorners(fam->width_at_border);
     const std::optional<Eigen::Matrix3d> homography = HomographyFrom4(square, tag.corners);
     if (!homography) return MakeError("RenderTags: degenerate corners for tag " + std::to_string(tag.id));
     const Eigen::Matrix3d& h = *homography;
@@ -69,8 +52,9 @@ Result<cv::Mat> RenderTags(const std::string& family_name, int width, int height
 
     // Pixels the bitmap (with its white margin) can touch.
     double x_min = 1e9, x_max = -1e9, y_min = 1e9, y_max = -1e9;
-    for (double u : {-border_start, total - border_start}) {
-      for (double v : {-border_start, total - border_start}) {
+    const double reach = border_start + options.paper_margin_modules;
+    for (double u : {-reach, across + reach}) {
+      for (double v : {-reach, across + reach}) {
         const Eigen::Vector3d p = h * Eigen::Vector3d(u, v, 1.0);
         x_min = std::min(x_min, p.x() / p.z());
         x_max = std::max(x_max, p.x() / p.z());
@@ -82,24 +66,46 @@ Result<cv::Mat> RenderTags(const std::string& family_name, int width, int height
     const int x1 = std::min(width - 1, static_cast<int>(std::ceil(x_max)) + 1);
     const int y0 = std::max(0, static_cast<int>(std::floor(y_min)) - 1);
     const int y1 = std::min(height - 1, static_cast<int>(std::ceil(y_max)) + 1);
+    // Value of the bitmap (or -1 outside it) at an image point.
+    auto bitmap_value = [&](double x, double y) -> double {
+      const Eigen::Vector3d q = square_from_image * Eigen::Vector3d(x, y, 1.0);
+      const double bx = q.x() / q.z() + border_start;
+      const double by = q.y() / q.z() + border_start;
+      if (!(bx >= 0 && by >= 0 && bx < total && by < total)) {
+        const double m = options.paper_margin_modules;
+        const bool on_paper = bx >= -m && by >= -m && bx < total + m && by < total + m;
+        return on_paper ? options.white : -1.0;
+      }
+      const uint8_t bit = bitmap->buf[static_cast<int>(by) * bitmap->stride + static_cast<int>(bx)];
+      return bit != 0 ? options.white : options.black;
+    };
     const int s = options.supersample;
     for (int y = y0; y <= y1; ++y) {
       float* row = canvas.ptr<float>(y);
       for (int x = x0; x <= x1; ++x) {
-        double sum = 0.0;
-        int covered = 0;
-        for (int sy = 0; sy < s; ++sy) {
-          for (int sx = 0; sx < s; ++sx) {
-            const Eigen::Vector3d q = square_from_image * Eigen::Vector3d(x - 0.5 + (sx + 0.5) / s, y - 0.5 + (sy + 0.5) / s, 1.0);
-            const double bx = q.x() / q.z() + border_start;
-            const double by = q.y() / q.z() + border_start;
-            if (bx < 0 || by < 0 || bx >= total || by >= total) continue;
-            const uint8_t bit = bitmap->buf[static_cast<int>(by) * bitmap->stride + static_cast<int>(bx)];
-            sum += bit != 0 ? options.white : options.black;
-            ++covered;
+        // A coarse s x s grid finds the pixels an edge crosses; those are
+        // integrated on a Fibonacci lattice, whose points all differ in x and
+        // in y, so an edge at any angle is placed to 1/kFineSamples px (a
+        // regular grid would quantise an axis-aligned edge to 1/s px).
+        double first = bitmap_value(x - 0.5 + 0.5 / s, y - 0.5 + 0.5 / s);
+        bool uniform = true;
+        for (int sy = 0; sy < s && uniform; ++sy) {
+          for (int sx = 0; sx < s && uniform; ++sx) {
+            uniform = bitmap_value(x - 0.5 + (sx + 0.5) / s, y - 0.5 + (sy + 0.5) / s) == first;
           }
         }
-        if (covered > 0) row[x] = static_cast<float>((sum + (s * s - covered) * row[x]) / (s * s));
+        if (uniform) {
+          if (first >= 0.0) row[x] = static_cast<float>(first);
+          continue;
+        }
+        double sum = 0.0;
+        for (int i = 0; i < kFineSamples; ++i) {
+          const double fx = (i + 0.5) / kFineSamples;
+          const double fy = std::fmod((i * kFibonacciStep + 0.5) / kFineSamples, 1.0);
+          const double v = bitmap_value(x - 0.5 + fx, y - 0.5 + fy);
+          sum += v >= 0.0 ? v : row[x];
+        }
+        row[x] = static_cast<float>(sum / kFineSamples);
       }
     }
   }

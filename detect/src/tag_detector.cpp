@@ -3,11 +3,13 @@
 
 #include <algorithm>
 #include <memory>
+#include <unordered_map>
 
 #include <apriltag/apriltag.h>
 
 #include "apriltag_family.h"
 #include "tagsfm/detect/corner_refinement.h"
+#include "tagsfm/detect/tag_layout.h"
 
 namespace tagsfm {
 namespace {
@@ -98,7 +100,7 @@ class AprilTagDetector final : public TagDetector {
   }
 
   // A failed refinement keeps libapriltag's corners: a tag is never lost to it.
-  void Refine(const cv::Mat& gray8, TagDetection* tag) const {
+  void Refine(const cv::Mat& gray8, TagDetection* tag) {
     switch (options_.refinement) {
       case CornerRefinement::kNone:
       case CornerRefinement::kAprilTag:
@@ -107,12 +109,19 @@ class AprilTagDetector final : public TagDetector {
         RefineCornersBySubPix(gray8, family_->width_at_border, &tag->corners);
         return;
       case CornerRefinement::kEdgeLineFit:
-        RefineCornersByEdgeLines(gray8, family_->width_at_border, &tag->corners);
+        RefineCornersByEdgeLines(gray8, Layout(tag->id), &tag->corners);
         return;
     }
   }
 
+  const TagLayout& Layout(TagId id) const {
+    auto it = layouts_.find(id);
+    if (it == layouts_.end()) it = layouts_.emplace(id, detail::LayoutOf(family_.get(), id)).first;
+    return it->second;
+  }
+
   detail::FamilyPtr family_;
+  mutable std::unordered_map<TagId, TagLayout> layouts_;  // per id, built on first sight
   std::unique_ptr<apriltag_detector_t, DetectorDeleter> detector_;
 };
 

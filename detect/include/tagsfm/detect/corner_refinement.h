@@ -18,12 +18,15 @@ struct EdgeLine {
   double offset = 0.0;
 };
 
-// Fits each of the tag's four outer edges from sub-pixel edge positions
-// (gradient-weighted centroids along many normals to the edge, in a window
-// re-centred on the fitted line until it is symmetric about it) and
-// intersects adjacent lines. modules_across: modules between two corners
-// (sets the window so that it stays inside the tag's one-module border).
-bool RefineCornersByEdgeLines(const cv::Mat& gray8, int modules_across, QuadCorners* corners);
+struct TagLayout;
+
+// Fits each of the tag's four outer edges and intersects adjacent lines.
+// Each edge is fitted by Levenberg-Marquardt to the pixels of a band around
+// it, with a model of the blurred step plus the blurred modules behind the
+// border that have the outside's shade (from the layout: on small, blurred
+// tags that inner edge, one module in, otherwise pulls the edge outward by up
+// to 0.1 px). Unknown layout (empty like_border): a plain blurred step.
+bool RefineCornersByEdgeLines(const cv::Mat& gray8, const TagLayout& layout, QuadCorners* corners);
 
 // OpenCV cornerSubPix on each corner, with a window smaller than one module.
 bool RefineCornersBySubPix(const cv::Mat& gray8, int modules_across, QuadCorners* corners);

@@ -23,12 +23,14 @@ struct PlacedTag {
 };
 
 struct TagRenderOptions {
-  int supersample = 8;        // samples per pixel along each axis
+  int supersample = 8;         // coarse grid per pixel axis; pixels an edge crosses get 987 samples
   double blur_sigma_px = 0.0;  // Gaussian optical blur
   double noise_sigma = 0.0;    // Gaussian noise, grey levels
   double black = 30.0;         // grey levels of the tag's black and white
   double white = 220.0;
-  double background = 140.0;   // outside the tags' white margins
+  double background = 140.0;   // outside the tags' paper
+  double paper_margin_modules = 1.0;  // white paper beyond libapriltag's bitmap
+                                      // (which has one white module already)
   std::uint64_t seed = 1;
 };
 
