@@ -1,0 +1,188 @@
+// tagsfm replay end to end on the bundled synthetic box recording, against
+// its ground truth; and the contract's behaviour on bad input.
+#include <sys/wait.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdlib>
+#include <fstream>
+#include <sstream>
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include "tagsfm/core/csv_formats.h"
+#include "tagsfm/core/file_util.h"
+#include "tagsfm/recon/truth_comparison.h"
+#include "test_paths.h"
+
+namespace tagsfm {
+namespace {
+
+namespace fs = std::filesystem;
+using testing::RecordingsDir;
+using testing::TagsfmExe;
+using testing::TempDir;
+
+struct CommandRun {
+  int exit_code = -1;
+  std::string err;
+};
+
+CommandRun Tagsfm(const std::string& args, const fs::path& scratch) {
+  const fs::path err = scratch / "stderr.txt";
+  const std::string command =
+      TagsfmExe().string() + " " + args + " 2> " + err.string() + " > " + (scratch / "stdout.txt").string();
+  CommandRun run;
+  const int status = std::system(command.c_str());
+  run.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  // Messages may go to either stream (spdlog's default sink is stdout).
+  auto text = ReadFileToString(err);
+  if (text) run.err = *text;
+  auto out = ReadFileToString(scratch / "stdout.txt");
+  if (out) run.err += *out;
+  return run;
+}
+
+nlohmann::json ReadJson(const fs::path& path) {
+  auto text = ReadFileToString(path);
+  EXPECT_TRUE(text.has_value()) << path;
+  return text ? nlohmann::json::parse(*text) : nlohmann::json();
+}
+
+fs::path Box() { return RecordingsDir() / "box_small"; }
+
+void ExpectContractFiles(const fs::path& out) {
+  for (const char* name : {"poses.csv", "targets.csv", "report.json", "cloud.ply", "colmap/cameras.txt",
+                           "colmap/images.txt", "colmap/points3D.txt", "preview.png"}) {
+    EXPECT_TRUE(fs::exists(out / name)) << name;
+  }
+  const nlohmann::json report = ReadJson(out / "report.json");
+  for (const char* key : {"frames", "registered_frames", "frames_skipped", "targets_seen", "points",
+                          "reprojection_rms_px", "target_reprojection_rms_px", "runtime_s", "frame_latency_ms",
+                          "peak_rss_mb", "pose_methods", "unregistered_frames"}) {
+    EXPECT_TRUE(report.contains(key)) << key;
+  }
+  // cloud.ply: the header the evaluator reads, and as many vertices as points.
+  std::ifstream ply(out / "cloud.ply", std::ios::binary);
+  std::string line, header;
+  while (std::getline(ply, line) && line != "end_header") header += line + "\n";
+  EXPECT_NE(header.find("format binary_little_endian 1.0"), std::string::npos);
+  EXPECT_NE(header.find("element vertex " + std::to_string(report["points"].get<int>())), std::string::npos);
+  EXPECT_NE(header.find("property double x\nproperty double y\nproperty double z\nproperty uchar red\nproperty uchar "
+                        "green\nproperty uchar blue\nproperty int track_length\nproperty float reprojection_error"),
+            std::string::npos);
+  const auto data_start = ply.tellg();
+  ply.seekg(0, std::ios::end);
+  EXPECT_EQ(static_cast<long>(ply.tellg() - data_start), report["points"].get<long>() * (3 * 8 + 3 + 4 + 4));
+}
+
+TEST(ReplayBoxSlow, KnownMapPosesMatchTheTruth) {
+  TempDir scratch;
+  const fs::path out = scratch.path() / "out";
+  const CommandRun run = Tagsfm("replay " + Box().string() + " --out " + out.string() + " --targets " +
+                             (Box() / "ground_truth/targets.csv").string(),
+                         scratch.path());
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  ExpectContractFiles(out);
+  const TruthComparison c = CompareWithTruth(*ReadPosesCsv(out / "poses.csv"), *ReadTargetsCsv(out / "targets.csv"),
+                                             *ReadPosesCsv(Box() / "ground_truth/poses.csv"),
+                                             *ReadTargetsCsv(Box() / "ground_truth/targets.csv"), false);
+  // Every frame registers. Measured (2026-11-22): rotation median 0.015 deg,
+  // max 0.20 deg (a frame seeing few tags of one face), centre median
+  // 0.38 mm. Bounds at about twice that: a regression check, not the
+  // issue's goal (0.006 deg / 0.2 mm), which this 640x480 capture misses.
+  EXPECT_EQ(c.frames_compared, c.frames_in_truth);
+  EXPECT_LT(c.rotation_median_deg, 0.03);
+  EXPECT_LT(c.rotation_max_deg, 0.4);
+  EXPECT_LT(c.centre_median_m, 0.001);
+  const nlohmann::json report = ReadJson(out / "report.json");
+  EXPECT_LT(report["target_reprojection_rms_px"].get<double>(), 0.3);  // the bound
+}
+
+TEST(ReplayBoxSlow, WithoutMapTargetsAreMetricAndMatchTheTruth) {
+  TempDir scratch;
+  const fs::path out = scratch.path() / "out";
+  const CommandRun run = Tagsfm("replay " + Box().string() + " --out " + out.string(), scratch.path());
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  ExpectContractFiles(out);
+  const TruthComparison c = CompareWithTruth(*ReadPosesCsv(out / "poses.csv"), *ReadTargetsCsv(out / "targets.csv"),
+                                             *ReadPosesCsv(Box() / "ground_truth/poses.csv"),
+                                             *ReadTargetsCsv(Box() / "ground_truth/targets.csv"), true);
+  // Measured (2026-11-22): 15 targets mapped (the others seen in too few of
+  // the 20 frames of a 50-degree arc), corner RMS 1.10 mm = 1/2,300 of the
+  // scene, scale +0.13 % (the corners' outward bias, ~0.07 px, makes tags
+  // look nearer), 0.10 px reprojection RMS. Short of the 1/10,000
+  // and 0.1 %; these bounds catch regressions.
+  EXPECT_EQ(c.frames_compared, c.frames_in_truth);
+  EXPECT_GE(c.targets_compared, 12);
+  EXPECT_LT(c.corner_rms_m, c.scene_size_m / 1500);
+  EXPECT_NEAR(c.scale, 1.0, 0.003);
+  const nlohmann::json report = ReadJson(out / "report.json");
+  EXPECT_LT(report["target_reprojection_rms_px"].get<double>(), 0.3);
+  EXPECT_TRUE(fs::exists(out / "targets_cov.csv"));
+  // measure: a tag's diagonal is exact by construction (square of known size).
+  const std::string anchor = std::to_string(report["anchor_tag"].get<int>());
+  const CommandRun measure = Tagsfm("measure " + out.string() + " " + anchor + ":0 " + anchor + ":2 --json", scratch.path());
+  ASSERT_EQ(measure.exit_code, 0) << measure.err;
+  const nlohmann::json m = ReadJson(scratch.path() / "stdout.txt");
+  EXPECT_NEAR(m["distance_m"].get<double>(), 0.06 * std::sqrt(2.0), 1e-9);
+}
+
+TEST(ReplayBoxSlow, UnreadableFrameIsSkippedAndCounted) {
+  TempDir scratch;
+  const fs::path rec = scratch.path() / "rec";
+  fs::copy(Box(), rec, fs::copy_options::recursive);
+  // Cut frame 5's image in half.
+  auto index = ReadFileToString(rec / "frames.csv");
+  ASSERT_TRUE(index.has_value());
+  std::istringstream lines(*index);
+  std::string line, file;
+  for (int i = 0; std::getline(lines, line); ++i) {
+    if (i == 6) file = SplitCsvLine(line)[2];
+  }
+  const fs::path image = fs::path(file).is_absolute() ? fs::path(file) : rec / file;
+  fs::resize_file(image, fs::file_size(image) / 2);
+  const fs::path out = scratch.path() / "out";
+  const CommandRun run = Tagsfm("replay " + rec.string() + " --out " + out.string(), scratch.path());
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  EXPECT_NE(run.err.find("skipping frame 5"), std::string::npos) << run.err;
+  const nlohmann::json report = ReadJson(out / "report.json");
+  EXPECT_EQ(report["frames_skipped"].get<int>(), 1);
+  EXPECT_EQ(report["frames"].get<int>(), 20);
+  EXPECT_EQ(report["registered_frames"].get<int>(), 19);
+}
+
+TEST(ReplayCommand, MissingRecordingIsAOneLineErrorNamingIt) {
+  TempDir scratch;
+  const CommandRun run =
+      Tagsfm("replay " + (scratch.path() / "nothing").string() + " --out " + (scratch.path() / "out").string(),
+             scratch.path());
+  EXPECT_NE(run.exit_code, 0);
+  EXPECT_NE(run.err.find("nothing"), std::string::npos) << run.err;
+  EXPECT_EQ(std::count(run.err.begin(), run.err.end(), '\n'), 1) << run.err;  // one line
+}
+
+TEST(ReplayCommand, NoTargetsSaysNotAvailableYet) {
+  TempDir scratch;
+  const CommandRun run = Tagsfm("replay " + Box().string() + " --out " + (scratch.path() / "out").string() + " --no-targets",
+                         scratch.path());
+  EXPECT_NE(run.exit_code, 0);
+  EXPECT_NE(run.err.find("not available yet"), std::string::npos) << run.err;
+  EXPECT_FALSE(fs::exists(scratch.path() / "out" / "report.json"));
+}
+
+TEST(ReplayMeasureCommand, UnknownTagIsAnErrorNamingIt) {
+  TempDir scratch;
+  const fs::path out = scratch.path() / "out";
+  fs::create_directories(out);
+  TargetCornerMap targets;
+  targets[1] = {Eigen::Vector3d(0, 0, 0), Eigen::Vector3d(1, 0, 0), Eigen::Vector3d(1, 1, 0), Eigen::Vector3d(0, 1, 0)};
+  ASSERT_TRUE(WriteTargetsCsv(out / "targets.csv", targets).ok());
+  const CommandRun run = Tagsfm("measure " + out.string() + " 1 99", scratch.path());
+  EXPECT_NE(run.exit_code, 0);
+  EXPECT_NE(run.err.find("tag 99"), std::string::npos) << run.err;
+}
+
+}  // namespace
+}  // namespace tagsfm
