@@ -202,6 +202,16 @@ std::vector<BandPixel> CollectBand(const cv::Mat& image, const Eigen::Matrix3d& 
       band.push_back(p);
     }
   }
+  // A big tag's edge has thousands of pixels; ~1500 evenly spread ones give
+  // the line to well below 0.01 px and keep the fit at ~0.1 ms per edge.
+  constexpr size_t kMaxBandPixels = 1500;
+  if (band.size() > kMaxBandPixels) {
+    const double stride = static_cast<double>(band.size()) / kMaxBandPixels;
+    std::vector<BandPixel> thinned;
+    thinned.reserve(kMaxBandPixels);
+    for (size_t i = 0; i < kMaxBandPixels; ++i) thinned.push_back(band[static_cast<size_t>(i * stride)]);
+    band.swap(thinned);
+  }
   return band;
 }
 
