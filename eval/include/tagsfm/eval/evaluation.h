@@ -1,0 +1,87 @@
+#pragma once
+// Scoring a replay's results (OUT/) against a recording's ground truth
+// (REC/ground_truth/), as the paper does in section 4:
+//   eq. 1  reprojection error: the true target corners projected with the
+//          estimated pose vs with the true pose, pixels (mean per frame);
+//   eq. 2  rotational error ||q_est - q_true|| / ||q_true||, quaternions
+//          sign-aligned (also as an angle in degrees);
+//   eq. 3  positional error of the camera centres, metres;
+// plus target corner errors and the distance of every cloud point to the
+// true surfaces. Each is given as is, after a best-fit rigid alignment and
+// after a best-fit similarity alignment (for results without metric scale
+// or in another world frame).
+#include <filesystem>
+#include <map>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "tagsfm/core/camera_model.h"
+#include "tagsfm/core/csv_formats.h"
+#include "tagsfm/eval/scene_geometry.h"
+#include "tagsfm/eval/similarity.h"
+
+namespace tagsfm::eval {
+
+struct Stats {
+  int count = 0;
+  double mean = 0, median = 0, p95 = 0, max = 0, rms = 0;
+  static Stats Of(std::vector<double> values);
+};
+
+struct FrameError {
+  FrameId frame = 0;
+  std::optional<double> reprojection_px;  // absent without intrinsics or visible corners
+  double rotation_rel = 0;
+  double rotation_deg = 0;
+  double position_m = 0;
+};
+
+struct PoseErrors {
+  std::vector<FrameError> frames;
+  Stats reprojection_px, rotation_rel, rotation_deg, position_m;
+};
+
+struct TargetErrors {
+  int common_tags = 0;
+  Stats corner_error_m;  // rms and max are what matter
+};
+
+// One way of putting the estimate into the true frame.
+struct AlignedErrors {
+  std::string name;  // "as_is", "rigid", "similarity"
+  Sim3d true_from_est;
+  std::optional<PoseErrors> poses;
+  std::optional<TargetErrors> targets;
+  std::optional<Stats> cloud_distance_m;
+};
+
+// What a comparison needs, already loaded; absent parts are simply skipped.
+struct EvaluationInput {
+  std::optional<CameraModel> camera;
+  std::optional<PoseMap> true_poses, estimated_poses;
+  std::optional<TargetCornerMap> true_targets, estimated_targets;
+  std::optional<std::vector<SurfaceRectangle>> surfaces;
+  std::optional<std::vector<Eigen::Vector3d>> cloud;
+};
+
+struct Evaluation {
+  int ground_truth_frames = 0;
+  int registered_frames = 0;    // estimated poses of ground-truth frames
+  int unregistered_frames = 0;  // ground-truth frames without an estimated pose
+  int unknown_frames = 0;       // estimated poses of frames the truth lacks
+  std::vector<TagId> missing_tags, unknown_tags;
+  int cloud_points = 0;
+  std::string alignment_source;  // "target_corners", "camera_centres" or "none"
+  int alignment_correspondences = 0;
+  std::vector<AlignedErrors> variants;  // as_is, then rigid and similarity when alignable
+};
+
+Evaluation Evaluate(const EvaluationInput& input);
+
+// Loads OUT/ and REC/ (missing optional files are reported as absent, a
+// malformed one is an error naming it), evaluates, and renders the JSON that
+// `tagsfm evaluate` prints.
+Result<std::string> EvaluateDirectoriesJson(const std::filesystem::path& out, const std::filesystem::path& rec);
+
+}  // namespace tagsfm::eval

@@ -1,0 +1,57 @@
+#include "tagsfm/eval/scene_geometry.h"
+
+#include <algorithm>
+#include <limits>
+
+#include <yaml-cpp/yaml.h>
+
+namespace tagsfm::eval {
+
+double SurfaceRectangle::DistanceTo(const Eigen::Vector3d& point) const {
+  const Eigen::Vector3d d = point - origin;
+  const double a = std::clamp(d.dot(edge_u) / edge_u.squaredNorm(), 0.0, 1.0);
+  const double b = std::clamp(d.dot(edge_v) / edge_v.squaredNorm(), 0.0, 1.0);
+  return (origin + a * edge_u + b * edge_v - point).norm();
+}
+
+double DistanceToSurfaces(const std::vector<SurfaceRectangle>& surfaces, const Eigen::Vector3d& point) {
+  double best = std::numeric_limits<double>::infinity();
+  for (const SurfaceRectangle& s : surfaces) best = std::min(best, s.DistanceTo(point));
+  return best;
+}
+
+Result<std::vector<SurfaceRectangle>> ReadSceneYaml(const std::filesystem::path& path) {
+  const std::string file = path.string();
+  YAML::Node root;
+  try {
+    root = YAML::LoadFile(file);
+  } catch (const YAML::BadFile&) {
+    return MakeError(file + ": cannot open");
+  } catch (const YAML::Exception& e) {
+    return MakeError(file + ": not valid YAML (line " + std::to_string(e.mark.line + 1) + ")");
+  }
+  const YAML::Node faces = root.IsMap() ? root["faces"] : YAML::Node();
+  if (!faces || !faces.IsSequence()) return MakeError(file + ": faces is missing or not a list");
+  std::vector<SurfaceRectangle> surfaces;
+  for (size_t i = 0; i < faces.size(); ++i) {
+    const std::string where = file + ": faces[" + std::to_string(i) + "].";
+    SurfaceRectangle s;
+    try {
+      s.name = faces[i]["name"] ? faces[i]["name"].as<std::string>() : "face" + std::to_string(i);
+      Eigen::Vector3d* fields[] = {&s.origin, &s.edge_u, &s.edge_v};
+      const char* names[] = {"origin", "edge_u", "edge_v"};
+      for (int f = 0; f < 3; ++f) {
+        const YAML::Node v = faces[i][names[f]];
+        if (!v || !v.IsSequence() || v.size() != 3) return MakeError(where + names[f] + " must be a list of 3 numbers");
+        *fields[f] = Eigen::Vector3d(v[0].as<double>(), v[1].as<double>(), v[2].as<double>());
+      }
+    } catch (const YAML::Exception&) {
+      return MakeError(where + " has a value of the wrong type");
+    }
+    if (!(s.edge_u.norm() > 0) || !(s.edge_v.norm() > 0)) return MakeError(where + "edge_u/edge_v must be non-zero");
+    surfaces.push_back(s);
+  }
+  return surfaces;
+}
+
+}  // namespace tagsfm::eval
