@@ -159,4 +159,31 @@ std::vector<PlacedTag> RandomTagPlacements(int width, int height, int count, dou
   return placed;
 }
 
+std::vector<std::vector<PlacedTag>> VideoTagPlacements(int width, int height, int count, double side_px, int frames,
+                                                       double pan_px_per_frame, std::uint64_t seed) {
+  const std::vector<PlacedTag> start = RandomTagPlacements(width, height, count, side_px, 50.0, seed);
+  std::mt19937_64 rng(seed + 1);
+  std::normal_distribution<double> shake(0.0, 0.7);
+  const Eigen::Vector2d center(0.5 * width, 0.5 * height);
+  std::vector<std::vector<PlacedTag>> sequence;
+  for (int f = 0; f < frames; ++f) {
+    const Eigen::Rotation2Dd roll(0.1 * M_PI / 180.0 * f);
+    const Eigen::Vector2d shift = Eigen::Vector2d(pan_px_per_frame, 0.5 * pan_px_per_frame) * f +
+                                  Eigen::Vector2d(shake(rng), shake(rng)) -
+                                  Eigen::Vector2d(pan_px_per_frame, 0.5 * pan_px_per_frame) * (0.5 * frames);
+    std::vector<PlacedTag> frame;
+    for (const PlacedTag& tag : start) {
+      PlacedTag moved = tag;
+      bool inside = true;
+      for (Eigen::Vector2d& c : moved.corners) {
+        c = center + roll * (c - center) + shift;
+        inside = inside && c.x() > 2 && c.y() > 2 && c.x() < width - 3 && c.y() < height - 3;
+      }
+      if (inside) frame.push_back(moved);
+    }
+    sequence.push_back(std::move(frame));
+  }
+  return sequence;
+}
+
 }  // namespace tagsfm

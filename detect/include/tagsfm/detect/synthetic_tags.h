@@ -46,4 +46,11 @@ Result<cv::Mat> RenderTags(const std::string& family, int width, int height, con
 std::vector<PlacedTag> RandomTagPlacements(int width, int height, int count, double side_px, double max_tilt_deg,
                                            std::uint64_t seed);
 
+// A video-like sequence: the tags of RandomTagPlacements seen by a camera
+// that pans (`pan_px_per_frame` along x, half that along y), rolls 0.1 degree
+// per frame and shakes by about a pixel; tags leaving the image (with a
+// 2 px margin) are left out of that frame.
+std::vector<std::vector<PlacedTag>> VideoTagPlacements(int width, int height, int count, double side_px, int frames,
+                                                       double pan_px_per_frame, std::uint64_t seed);
+
 }  // namespace tagsfm

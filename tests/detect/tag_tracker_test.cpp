@@ -1,0 +1,142 @@
+// Tracking mode against full-frame detection on a video-like sequence with
+// exactly known corners.
+#include <set>
+
+#include <gtest/gtest.h>
+
+#include "corner_stats.h"
+#include "tagsfm/detect/synthetic_tags.h"
+#include "tagsfm/detect/tag_tracker.h"
+
+namespace tagsfm {
+namespace {
+
+struct Video {
+  std::vector<std::vector<PlacedTag>> truth;
+  std::vector<cv::Mat> frames;
+};
+
+// 640x480, 12 tags of ~36 px, panning 4 px per frame, noise 2, blur 0.7.
+std::vector<std::vector<PlacedTag>> VideoTruth() { return VideoTagPlacements(640, 480, 12, 36.0, 24, 4.0, 11); }
+
+cv::Mat RenderFrame(const std::vector<PlacedTag>& tags, int seed) {
+  TagRenderOptions render;
+  render.blur_sigma_px = 0.7;
+  render.noise_sigma = 2.0;
+  render.seed = seed;
+  return *RenderTags("tag36h11", 640, 480, tags, render);
+}
+
+const Video& TestVideo() {
+  static const Video video = [] {
+    Video v;
+    v.truth = VideoTruth();
+    for (size_t f = 0; f < v.truth.size(); ++f) v.frames.push_back(RenderFrame(v.truth[f], 100 + f));
+    return v;
+  }();
+  return video;
+}
+
+std::set<TagId> Ids(const DetectionSet& set) {
+  std::set<TagId> ids;
+  for (const auto& t : set.tags) ids.insert(t.id);
+  return ids;
+}
+
+TEST(TagTrackerSlow, SameRecallAndAccuracyAsFullFrame) {
+  const Video& video = TestVideo();
+  auto full = TagDetector::Create(TagDetectorOptions{});
+  TagTrackerOptions tracker_options;
+  tracker_options.full_frame_every = 10;
+  auto tracker = TagTracker::Create(TagDetectorOptions{}, tracker_options);
+  ASSERT_TRUE(full.has_value());
+  ASSERT_TRUE(tracker.has_value());
+  testing::CornerStats full_stats, tracked_stats;
+  std::set<TagId> ever_tracked;
+  int late = 0;
+  for (size_t f = 0; f < video.frames.size(); ++f) {
+    auto by_full = (*full)->Detect(video.frames[f], f);
+    auto by_tracker = (*tracker)->Track(video.frames[f], f);
+    ASSERT_TRUE(by_full.has_value());
+    ASSERT_TRUE(by_tracker.has_value());
+    const std::set<TagId> full_ids = Ids(*by_full), tracked_ids = Ids(*by_tracker);
+    // A tag the tracker knew is never lost; a tag new to it (entering the
+    // view) waits for the next full-frame pass, at most 10 frames.
+    for (TagId id : full_ids) {
+      if (tracked_ids.count(id)) continue;
+      EXPECT_FALSE(ever_tracked.count(id)) << "frame " << f << ": tag " << id << " lost";
+      ++late;
+    }
+    ever_tracked.insert(tracked_ids.begin(), tracked_ids.end());
+    testing::AccumulateCornerStats(video.truth[f], *by_full, &full_stats);
+    testing::AccumulateCornerStats(video.truth[f], *by_tracker, &tracked_stats);
+  }
+  const TagTrackerStats& stats = (*tracker)->stats();
+  std::printf("full frame: %s\ntracker:    %s\ntracker: %d frames, %d full-frame (%d recoveries), %d regions, "
+              "%d sightings of entering tags before their first full-frame pass\n",
+              full_stats.Summary().c_str(), tracked_stats.Summary().c_str(), stats.frames,
+              stats.full_frame_detections, stats.recoveries, stats.region_detections, late);
+  EXPECT_EQ(tracked_stats.wrong_ids, 0);
+  EXPECT_GE(tracked_stats.found_tags + late, full_stats.found_tags);
+  // No loss of accuracy: the same refinement on the same pixels (a region
+  // holds the whole band the edge fit uses).
+  EXPECT_LE(tracked_stats.Median(), full_stats.Median() + 0.005);
+  EXPECT_LE(tracked_stats.Percentile(0.95), full_stats.Percentile(0.95) + 0.02);
+  // Most frames ran on regions only: 24 frames, a full pass every 10.
+  EXPECT_LE(stats.full_frame_detections, 6);
+}
+
+TEST(TagTracker, CallerPredictionsAreSearched) {
+  const auto truth = VideoTruth();
+  TagTrackerOptions options;
+  options.full_frame_every = 1000;
+  auto tracker = TagTracker::Create(TagDetectorOptions{}, options);
+  ASSERT_TRUE(tracker.has_value());
+  // Frame 0 in full, then frame 12 (the tags have moved ~50 px: far beyond
+  // the constant-velocity guess) with the true corners as the prediction.
+  ASSERT_TRUE((*tracker)->Track(RenderFrame(truth[0], 1), 0).has_value());
+  std::map<TagId, QuadCorners> predicted;
+  for (const PlacedTag& t : truth[12]) predicted[t.id] = t.corners;
+  auto found = (*tracker)->Track(RenderFrame(truth[12], 2), 12, predicted);
+  ASSERT_TRUE(found.has_value());
+  EXPECT_EQ((*tracker)->stats().full_frame_detections, 1);  // no recovery needed
+  EXPECT_EQ((*tracker)->stats().recoveries, 0);
+  std::set<TagId> expected;
+  for (const PlacedTag& t : truth[12]) expected.insert(t.id);
+  EXPECT_EQ(Ids(*found), expected);
+}
+
+TEST(TagTracker, NewTagsAppearAtTheNextFullFrame) {
+  const auto truth = VideoTruth();
+  TagTrackerOptions options;
+  options.full_frame_every = 5;
+  auto tracker = TagTracker::Create(TagDetectorOptions{}, options);
+  ASSERT_TRUE(tracker.has_value());
+  // Frames 0-1 show half the tags; from frame 2 on, all of them.
+  TagRenderOptions render;
+  render.blur_sigma_px = 0.7;
+  std::vector<PlacedTag> half(truth[0].begin(), truth[0].begin() + truth[0].size() / 2);
+  ASSERT_TRUE((*tracker)->Track(*RenderTags("tag36h11", 640, 480, half, render), 0).has_value());
+  ASSERT_TRUE((*tracker)->Track(*RenderTags("tag36h11", 640, 480, half, render), 1).has_value());
+  std::set<TagId> all;
+  for (const PlacedTag& t : truth[0]) all.insert(t.id);
+  const cv::Mat full_view = *RenderTags("tag36h11", 640, 480, truth[0], render);
+  int first_complete = -1;
+  for (int f = 2; f < 8 && first_complete < 0; ++f) {
+    auto found = (*tracker)->Track(full_view, f);
+    ASSERT_TRUE(found.has_value());
+    if (Ids(*found) == all) first_complete = f;
+  }
+  EXPECT_EQ(first_complete, 5);  // the scheduled full-frame pass
+}
+
+TEST(TagTracker, OptionsAreChecked) {
+  TagTrackerOptions options;
+  options.full_frame_every = 0;
+  auto tracker = TagTracker::Create(TagDetectorOptions{}, options);
+  ASSERT_FALSE(tracker.has_value());
+  EXPECT_NE(tracker.error().message.find("full_frame_every"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace tagsfm
