@@ -15,9 +15,9 @@ Status ExperimentOptions::Check() const {
 const std::vector<ExperimentInfo>& ExperimentCatalogue() {
   static const std::vector<ExperimentInfo> catalogue = {
       {"depth-image-noise", "4.1.1 (fig. 2)", "camera depth vs 3D error of a point on a noisy ray, image noise 0-5 px",
-       100, "point sets of 100 box points"},
+       1000, "point sets of 100 box points"},
       {"depth-point-noise", "4.1.2 (fig. 3)", "camera depth vs EPnP pose from 3D points with noise 0-1 (box edge 1)",
-       100, "point sets of 100 box points"},
+       1000, "point sets of 100 box points"},
       {"targets-image-noise", "4.2.1 (fig. 5)", "5-1000 correspondences vs EPnP pose, image noise 0-10 px", 1234,
        "cameras per object (at most its set: 1234 / 278)"},
       {"targets-point-noise", "4.2.2 (fig. 6)", "5-1000 correspondences vs EPnP pose, 3D noise 0-5 units", 1234,
@@ -25,7 +25,7 @@ const std::vector<ExperimentInfo>& ExperimentCatalogue() {
       {"target-distribution", "4.2.3 (fig. 7)", "50 targets clustered vs spread, image noise 0-10 px", 1234,
        "cameras per object (at most its set: 1234 / 278)"},
       {"pipeline", "(beyond the paper)",
-       "2-50 tags: EPnP vs EPnP+LM vs tagsfm's pose estimator vs the error model, corner noise 0.25-3 px", 300,
+       "2-50 tags: EPnP vs EPnP+LM vs tagsfm's pose estimator vs the error model, corner noise 0.25-3 px", 1234,
        "cameras of the bradley-like set"},
   };
   return catalogue;

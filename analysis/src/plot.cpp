@@ -99,7 +99,7 @@ void WritePanel(const ExperimentResult& result, const Panel& panel, int panel_in
   }
   const std::string facet = panel.facet.empty() ? "" : ", " + Substitute(result.facet_title, panel.facet);
   script << "set title " << Quoted(panel.object + facet + ": " + StatisticName(panel.statistic) +
-                                   (capped ? " (axis capped; higher means off the chart)" : ""))
+                                   (capped ? " (capped axis)" : ""))
          << "\n";
   script << "set xlabel " << Quoted(result.x_label) << "\nset ylabel " << Quoted(panel.y_label) << "\n";
   script << (result.log_x ? "set logscale x\n" : "unset logscale x\n");
@@ -111,6 +111,8 @@ void WritePanel(const ExperimentResult& result, const Panel& panel, int panel_in
   script << (panel.log_y ? "set logscale y\nset format y \"%g\"\n" : "unset logscale y\nset format y \"%g\"\n");
   if (capped) {
     script << "set yrange [*:" << y_cap << "]\n";
+  } else if (panel.metric.ends_with("_rate")) {  // a fraction
+    script << "set yrange [0:1]\n";
   } else {
     script << "set yrange [*:*]\n";
   }

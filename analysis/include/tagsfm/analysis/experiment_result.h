@@ -13,7 +13,7 @@ struct ConditionRow {
   std::string facet;   // a third variable drawn in separate panels (empty if none), e.g. "1" px
   std::string series;  // the value of the line's variable, e.g. "2" (px) or "clustered"
   double x = 0;        // the x axis' variable, e.g. camera depth
-  std::string metric;  // e.g. "positional_error", see ExperimentResult::metric_units
+  std::string metric;  // with its unit, e.g. "positional_error_units"; "*_rate" metrics are fractions 0-1
   Summary stats;
 };
 

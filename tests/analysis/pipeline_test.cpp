@@ -1,0 +1,53 @@
+// The sweep beyond the paper: the project's pose estimator and the error
+// model on tag corners (Slow: ~5 s in Release, the estimator runs RANSAC).
+#include <gtest/gtest.h>
+
+#include "tagsfm/analysis/experiments.h"
+
+namespace tagsfm::analysis {
+namespace {
+
+double Value(const ExperimentResult& result, const std::string& noise, const std::string& solver, double tags,
+             const std::string& metric, double Summary::*statistic) {
+  for (const ConditionRow& row : result.rows) {
+    if (row.facet == noise && row.series == solver && row.x == tags && row.metric == metric) return row.stats.*statistic;
+  }
+  ADD_FAILURE() << "no row " << noise << " " << solver << " " << tags << " " << metric;
+  return 0;
+}
+
+TEST(AnalysisPipelineSlow, EstimatorsReachTheErrorModelsBoundWithEnoughTags) {
+  ExperimentOptions options;
+  options.trials = 100;
+  options.seed = 11;
+  const Result<ExperimentResult> result = RunExperiment("pipeline", options);
+  ASSERT_TRUE(result.has_value()) << result.error().message;
+  for (const char* noise : {"0.25", "1"}) {
+    for (double tags : {10.0, 20.0, 50.0}) {
+      for (const char* metric : {"rotation_error_deg", "positional_error_units"}) {
+        const double model = Value(*result, noise, "model", tags, metric, &Summary::rms);
+        // Maximum likelihood reaches the Cramer-Rao bound at these noise levels;
+        // RMS over 100 cameras scatters by ~7%: the 20% bar.
+        for (const char* solver : {"EPnP+LM", "tagsfm"}) {
+          EXPECT_NEAR(Value(*result, noise, solver, tags, metric, &Summary::rms), model, 0.2 * model)
+              << solver << " sigma " << noise << " tags " << tags << " " << metric;
+        }
+        // EPnP alone is consistent but not optimal: above the bound, by less than 2x.
+        const double epnp = Value(*result, noise, "EPnP", tags, metric, &Summary::rms);
+        EXPECT_GT(epnp, 0.95 * model);
+        EXPECT_LT(epnp, 2.0 * model);
+      }
+      EXPECT_EQ(Value(*result, noise, "tagsfm", tags, "failure_rate", &Summary::mean), 0.0);
+    }
+  }
+  // Two tags (8 corners, often on one face): a share of EPnP's poses are wild
+  // (RMS 36x the bound in the full run), while the project's estimator (with
+  // its planar fall-backs) stays near the bound.
+  EXPECT_GT(Value(*result, "0.25", "EPnP", 2, "rotation_error_deg", &Summary::rms),
+            5.0 * Value(*result, "0.25", "model", 2, "rotation_error_deg", &Summary::rms));
+  EXPECT_LT(Value(*result, "0.25", "tagsfm", 2, "rotation_error_deg", &Summary::rms),
+            1.5 * Value(*result, "0.25", "model", 2, "rotation_error_deg", &Summary::rms));
+}
+
+}  // namespace
+}  // namespace tagsfm::analysis
