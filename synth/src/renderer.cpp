@@ -131,12 +131,18 @@ cv::Mat1f SceneRenderer::Render(const Rigid3d& cam_from_world) const {
 void SceneRenderer::RenderRows(const Rigid3d& cam_from_world, int first_row, int row_step, cv::Mat1f* out) const {
   const Eigen::Matrix3d rotation = cam_from_world.RotationMatrix();
   std::vector<FaceInCamera> faces;
-  for (const SceneFace& face : scene_->faces) {
+  std::vector<int> face_index;
+  for (size_t i = 0; i < scene_->faces.size(); ++i) {
+    const SceneFace& face = scene_->faces[i];
     FaceInCamera f;
     const Eigen::Vector3d origin = cam_from_world * face.rect.origin;
     const Eigen::Vector3d eu = rotation * face.rect.edge_u, ev = rotation * face.rect.edge_v;
     f.normal = eu.cross(ev);
     f.plane_d = f.normal.dot(origin);
+    // Faces are one-sided: one seen from behind (the camera at the origin on
+    // its back side) is hidden by the front faces of the same solid.
+    if (f.plane_d >= 0) continue;
+    face_index.push_back(static_cast<int>(i));
     f.u = eu / eu.squaredNorm();
     f.v = ev / ev.squaredNorm();
     f.u_offset = f.u.dot(origin);
@@ -179,7 +185,7 @@ void SceneRenderer::RenderRows(const Rigid3d& cam_from_world, int first_row, int
             const double b = depth * face.v.dot(ray) - face.v_offset;
             if (b < 0.0 || b > 1.0) continue;
             best_depth = depth;
-            best_face = static_cast<int>(f);
+            best_face = face_index[f];
             best_a = a;
             best_b = b;
           }
