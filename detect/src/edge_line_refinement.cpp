@@ -23,7 +23,15 @@
 namespace tagsfm {
 namespace {
 
-double NormalCdf(double x) { return 0.5 * std::erfc(-x * M_SQRT1_2); }
+// Phi(x) to 1.5e-7 (Abramowitz & Stegun 7.1.26 for erf): the fit evaluates
+// it ~10^5 times per tag, and std::erfc is several times slower.
+double NormalCdf(double x) {
+  const double z = std::abs(x) * M_SQRT1_2;
+  const double t = 1.0 / (1.0 + 0.3275911 * z);
+  const double poly = t * (0.254829592 + t * (-0.284496736 + t * (1.421413741 + t * (-1.453152027 + t * 1.061405429))));
+  const double half_erfc = 0.5 * poly * std::exp(-z * z);
+  return x >= 0.0 ? 1.0 - half_erfc : half_erfc;
+}
 double NormalPdf(double x) { return 0.3989422804014327 * std::exp(-0.5 * x * x); }
 
 // One pixel of the band around an edge.
@@ -42,7 +50,7 @@ struct EdgeParams {
   double rho = 0.0;
   double border = 0.0;
   double outside = 0.0;
-  double sigma = 0.8;
+  double sigma = 0.8;  // start: a typical lens blur plus the pixel's own width
 };
 
 // Model of the grey level at a band pixel: border + (outside - border) * g,
@@ -58,9 +66,10 @@ class EdgeModel {
   // rows[r][k]: module k of row r + 1 behind the border has the outside's shade.
   explicit EdgeModel(std::array<std::vector<bool>, kRows> rows) : rows_(std::move(rows)) {}
 
-  // Value and derivatives with respect to (theta, rho, border, outside, sigma).
-  double Evaluate(const BandPixel& p, const EdgeParams& e, Eigen::Matrix<double, 5, 1>* jacobian) const {
-    const Eigen::Vector2d normal(std::cos(e.theta), std::sin(e.theta));
+  // Value and derivatives with respect to (theta, rho, border, outside,
+  // sigma); `normal` is (cos theta, sin theta), computed once per pass.
+  double Evaluate(const BandPixel& p, const EdgeParams& e, const Eigen::Vector2d& normal,
+                  Eigen::Matrix<double, 5, 1>* jacobian) const {
     const Eigen::Vector2d tangent(-normal.y(), normal.x());
     const double d = normal.dot(p.position) - e.rho;
     const double s = e.sigma;
@@ -69,10 +78,11 @@ class EdgeModel {
     double dg_dd = NormalPdf(a) / s;
     double dg_ds = -a * NormalPdf(a) / s;
     for (int r = 0; r < kRows; ++r) {
-      const double shade = RowShade(rows_[r], p.u, s / p.along_px);
-      if (shade == 0.0) continue;
       const double b0 = (d + (r + 1) * p.inner_px) / s;  // the row's outer and inner boundaries
       const double b1 = (d + (r + 2) * p.inner_px) / s;
+      if (b0 > 7.0 || b1 < -7.0) continue;  // the row's blur does not reach this pixel
+      const double shade = RowShade(rows_[r], p.u, s / p.along_px);
+      if (shade == 0.0) continue;
       g += shade * (NormalCdf(-b0) - NormalCdf(-b1));
       dg_dd += shade * (NormalPdf(b1) - NormalPdf(b0)) / s;
       dg_ds += shade * (b0 * NormalPdf(b0) - b1 * NormalPdf(b1)) / s;
@@ -104,30 +114,39 @@ class EdgeModel {
   std::array<std::vector<bool>, kRows> rows_;
 };
 
-// Levenberg-Marquardt on the band's pixels.
-bool FitEdgeModel(const std::vector<BandPixel>& band, const EdgeModel& model, EdgeParams* params) {
+// Levenberg-Marquardt on the band's pixels (positions relative to the
+// band's centroid, so that the angle and the offset are decoupled). Stops
+// when a step moves the line by less than 1e-4 px.
+bool FitEdgeModel(const std::vector<BandPixel>& band, const EdgeModel& model, double half_length,
+                  EdgeParams* params) {
   if (band.size() < 12) return false;
-  double lambda = 1e-3;
   auto cost_of = [&](const EdgeParams& e) {
     double cost = 0.0;
+    const Eigen::Vector2d normal(std::cos(e.theta), std::sin(e.theta));
     for (const BandPixel& p : band) {
-      const double r = model.Evaluate(p, e, nullptr) - p.value;
+      const double r = model.Evaluate(p, e, normal, nullptr) - p.value;
       cost += r * r;
     }
     return cost;
   };
-  double cost = cost_of(*params);
-  for (int iteration = 0; iteration < 15; ++iteration) {
+  double lambda = 1e-3;
+  double cost = -1.0;
+  for (int iteration = 0; iteration < 10; ++iteration) {
     Eigen::Matrix<double, 5, 5> normal_matrix = Eigen::Matrix<double, 5, 5>::Zero();
     Eigen::Matrix<double, 5, 1> gradient = Eigen::Matrix<double, 5, 1>::Zero();
     Eigen::Matrix<double, 5, 1> j;
+    double current_cost = 0.0;
+    const Eigen::Vector2d normal(std::cos(params->theta), std::sin(params->theta));
     for (const BandPixel& p : band) {
-      const double r = model.Evaluate(p, *params, &j) - p.value;
-      normal_matrix += j * j.transpose();
+      const double r = model.Evaluate(p, *params, normal, &j) - p.value;
+      normal_matrix.selfadjointView<Eigen::Lower>().rankUpdate(j);
       gradient += j * r;
+      current_cost += r * r;
     }
+    normal_matrix = normal_matrix.selfadjointView<Eigen::Lower>();
+    cost = current_cost;
     bool improved = false;
-    for (int attempt = 0; attempt < 6 && !improved; ++attempt) {
+    for (int attempt = 0; attempt < 5 && !improved; ++attempt) {
       Eigen::Matrix<double, 5, 5> damped = normal_matrix;
       damped.diagonal() *= 1.0 + lambda;
       const Eigen::Matrix<double, 5, 1> step = damped.ldlt().solve(-gradient);
@@ -138,14 +157,11 @@ bool FitEdgeModel(const std::vector<BandPixel>& band, const EdgeModel& model, Ed
       next.border += step(2);
       next.outside += step(3);
       next.sigma = std::clamp(next.sigma + step(4), 0.2, 10.0);
-      const double next_cost = cost_of(next);
-      if (next_cost < cost) {
-        const bool converged = std::abs(step(1)) < 1e-5 && std::abs(step(0)) < 1e-7;
+      if (cost_of(next) < cost) {
         *params = next;
-        cost = next_cost;
         lambda = std::max(1e-7, lambda * 0.3);
         improved = true;
-        if (converged) return true;
+        if (std::abs(step(1)) + std::abs(step(0)) * half_length < 1e-4) return true;
       } else {
         lambda *= 10.0;
       }
@@ -158,7 +174,7 @@ bool FitEdgeModel(const std::vector<BandPixel>& band, const EdgeModel& model, Ed
 // The pixels of edge i's band: from 0.8 module outside the edge to 2
 // modules inside (the border and the row behind it), clear of the corners.
 std::vector<BandPixel> CollectBand(const cv::Mat& image, const Eigen::Matrix3d& image_from_square, int n, int i,
-                                   double end_margin_modules) {
+                                   double end_margin_modules, Eigen::Vector2d* band_origin) {
   const Eigen::Matrix3d square_from_image = image_from_square.inverse();
   const QuadCorners square = CornerSquareCorners(n);
   const Eigen::Vector2d start = square[i];
@@ -201,6 +217,14 @@ std::vector<BandPixel> CollectBand(const cv::Mat& image, const Eigen::Matrix3d& 
       p.along_px = (to_image(start + (u + 0.5) * along) - to_image(start + (u - 0.5) * along)).norm();
       band.push_back(p);
     }
+  }
+  // Positions relative to the band's centroid (see FitEdgeModel).
+  if (!band.empty()) {
+    Eigen::Vector2d origin = Eigen::Vector2d::Zero();
+    for (const BandPixel& p : band) origin += p.position;
+    origin /= static_cast<double>(band.size());
+    for (BandPixel& p : band) p.position -= origin;
+    *band_origin = origin;
   }
   // A big tag's edge has thousands of pixels; ~1500 evenly spread ones give
   // the line to well below 0.01 px and keep the fit at ~0.1 ms per edge.
@@ -280,34 +304,40 @@ bool RefineCornersByEdgeLines(const cv::Mat& gray8, const TagLayout& layout, Qua
   const double end_margin_modules = std::clamp(2.5 / module_px, 0.5, 0.25 * n);
 
   QuadCorners current = initial;
-  std::array<EdgeParams, 4> params;
-  // Twice: the second pass samples the band and places the row behind the
-  // border from the better corners of the first.
+  std::array<EdgeParams, 4> params;  // levels and blur carry over between passes
+  std::array<EdgeLine, 4> lines;     // edge i runs from corner i to corner i+1
+  for (int i = 0; i < 4; ++i) {
+    const Eigen::Vector2d from = initial[i], to = initial[(i + 1) % 4];
+    const Eigen::Vector2d center = 0.25 * (initial[0] + initial[1] + initial[2] + initial[3]);
+    Eigen::Vector2d normal = Eigen::Vector2d(-(to - from).y(), (to - from).x()).normalized();
+    if (normal.dot(0.5 * (from + to) - center) < 0.0) normal = -normal;
+    lines[i] = {normal, normal.dot(from)};
+  }
+  // A second pass re-samples the band and re-places the row behind the
+  // border from the first pass's corners, when those moved noticeably.
   for (int pass = 0; pass < 2; ++pass) {
     const std::optional<Eigen::Matrix3d> image_from_square = HomographyFrom4(CornerSquareCorners(n), current);
     if (!image_from_square) return false;
-    const Eigen::Vector2d center = 0.25 * (current[0] + current[1] + current[2] + current[3]);
-    std::array<EdgeLine, 4> lines;
     for (int i = 0; i < 4; ++i) {
-      const std::vector<BandPixel> band = CollectBand(gray8, *image_from_square, n, i, end_margin_modules);
+      Eigen::Vector2d origin = Eigen::Vector2d::Zero();
+      const std::vector<BandPixel> band = CollectBand(gray8, *image_from_square, n, i, end_margin_modules, &origin);
       if (band.size() < 12) return false;
       EdgeParams& e = params[i];
-      if (pass == 0) {
-        const Eigen::Vector2d from = current[i], to = current[(i + 1) % 4];
-        Eigen::Vector2d normal = Eigen::Vector2d(-(to - from).y(), (to - from).x()).normalized();
-        if (normal.dot(0.5 * (from + to) - center) < 0.0) normal = -normal;
-        e.theta = std::atan2(normal.y(), normal.x());
-        e.rho = normal.dot(from);
-        e.sigma = 0.8;
-        StartLevels(band, &e);
-      }
-      if (!FitEdgeModel(band, EdgeModel(RowsBehindEdge(layout, i)), &e)) return false;
+      e.theta = std::atan2(lines[i].normal.y(), lines[i].normal.x());
+      e.rho = lines[i].offset - lines[i].normal.dot(origin);  // relative to the band's centroid
+      if (pass == 0) StartLevels(band, &e);
+      const double half_length = 0.5 * (current[(i + 1) % 4] - current[i]).norm();
+      if (!FitEdgeModel(band, EdgeModel(RowsBehindEdge(layout, i)), half_length, &e)) return false;
       lines[i].normal = Eigen::Vector2d(std::cos(e.theta), std::sin(e.theta));
-      lines[i].offset = e.rho;
+      lines[i].offset = e.rho + lines[i].normal.dot(origin);
     }
+    const QuadCorners before = current;
     for (int i = 0; i < 4; ++i) {
       if (!Intersect(lines[(i + 3) % 4], lines[i], &current[i])) return false;
     }
+    double moved = 0.0;
+    for (int i = 0; i < 4; ++i) moved = std::max(moved, (current[i] - before[i]).norm());
+    if (moved < 0.05) break;
   }
   // A refinement that moves a corner by more than half a module has locked
   // onto something else; the start is then the better answer.
