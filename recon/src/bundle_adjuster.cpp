@@ -1,5 +1,6 @@
 #include "tagsfm/recon/bundle_adjuster.h"
 
+#include <chrono>
 #include <cmath>
 
 #include <ceres/ceres.h>
@@ -157,48 +158,95 @@ double RmsOf(ceres::Problem* problem) {
   return residuals.empty() ? 0.0 : std::sqrt(2.0 * cost / (static_cast<double>(residuals.size()) / 2.0));
 }
 
-void ComputeCovariance(ceres::Problem* problem, std::map<TagId, MapTag>* tags, int free_parameters,
-                       GlobalAdjustmentSummary* out) {
+// The learned tags' joint covariance: (J^T J)^-1 restricted to the tags,
+// computed by eliminating the cameras (each camera's 6x6 block is
+// independent of the others: a Schur complement), so its cost grows with
+// the observations, not with the square of the frames.
+void ComputeCovariance(ceres::Problem* problem, const std::vector<FrameState*>& frames, std::map<TagId, MapTag>* tags,
+                       int free_parameters, GlobalAdjustmentSummary* out) {
   TagCovariance result;
-  std::vector<const double*> blocks;
+  std::vector<double*> blocks;
+  std::map<const double*, int> tag_column;  // tag q block -> first column among the tag unknowns
   for (auto& [id, tag] : *tags) {
     if (tag.known || tag.anchor || !problem->HasParameterBlock(tag.world_from_tag.q)) continue;
+    tag_column[tag.world_from_tag.q] = 6 * static_cast<int>(result.ids.size());
     result.ids.push_back(id);
-    blocks.push_back(tag.world_from_tag.q);
-    blocks.push_back(tag.world_from_tag.t);
   }
   if (result.ids.empty()) {
     out->covariance_note = "no learned tags: every target was held fixed";
     return;
   }
-  ceres::Covariance::Options options;
-  options.algorithm_type = ceres::SPARSE_QR;
-  options.num_threads = 2;
-  ceres::Covariance covariance(options);
-  std::vector<std::pair<const double*, const double*>> pairs;
-  for (size_t i = 0; i < blocks.size(); ++i) {
-    for (size_t j = i; j < blocks.size(); ++j) pairs.emplace_back(blocks[i], blocks[j]);
+  std::vector<FrameState*> cameras;
+  for (FrameState* f : frames) {
+    if (problem->HasParameterBlock(f->cam_from_world.q)) {
+      cameras.push_back(f);
+      blocks.push_back(f->cam_from_world.q);
+      blocks.push_back(f->cam_from_world.t);
+    }
   }
-  if (!covariance.Compute(pairs, problem)) {
+  const int camera_columns = 6 * static_cast<int>(cameras.size());
+  for (auto& [id, tag] : *tags) {
+    if (tag_column.count(tag.world_from_tag.q)) {
+      blocks.push_back(tag.world_from_tag.q);
+      blocks.push_back(tag.world_from_tag.t);
+    }
+  }
+  ceres::Problem::EvaluateOptions eval;
+  eval.parameter_blocks = blocks;  // in tangent space: 6 columns per pose
+  double cost = 0;
+  std::vector<double> residuals;
+  ceres::CRSMatrix jacobian;
+  if (!problem->Evaluate(eval, &cost, &residuals, nullptr, &jacobian)) {
+    out->covariance_note = "the adjustment's Jacobian could not be evaluated";
+    return;
+  }
+  const int n_tags = 6 * static_cast<int>(result.ids.size());
+  // Normal equations by blocks: per camera H_cc (6x6) and H_ct (6 x tags),
+  // and H_tt, accumulated row by row of the sparse Jacobian.
+  std::vector<Eigen::Matrix<double, 6, 6>> h_cc(cameras.size(), Eigen::Matrix<double, 6, 6>::Zero());
+  std::vector<std::map<int, Eigen::Matrix<double, 6, 6>>> h_ct(cameras.size());
+  Eigen::MatrixXd h_tt = Eigen::MatrixXd::Zero(n_tags, n_tags);
+  for (int r = 0; r < jacobian.num_rows; ++r) {
+    // Entries of one row: at most one camera and one tag.
+    int camera = -1, tag = -1;
+    Eigen::Matrix<double, 6, 1> jc = Eigen::Matrix<double, 6, 1>::Zero(), jt = Eigen::Matrix<double, 6, 1>::Zero();
+    for (int k = jacobian.rows[r]; k < jacobian.rows[r + 1]; ++k) {
+      const int col = jacobian.cols[k];
+      if (col < camera_columns) {
+        camera = col / 6;
+        jc(col % 6) = jacobian.values[k];
+      } else {
+        tag = (col - camera_columns) / 6;
+        jt((col - camera_columns) % 6) = jacobian.values[k];
+      }
+    }
+    if (camera >= 0) h_cc[camera] += jc * jc.transpose();
+    if (tag >= 0) h_tt.block<6, 6>(6 * tag, 6 * tag) += jt * jt.transpose();
+    if (camera >= 0 && tag >= 0) {
+      auto [it, inserted] = h_ct[camera].try_emplace(tag, Eigen::Matrix<double, 6, 6>::Zero());
+      it->second += jc * jt.transpose();
+    }
+  }
+  // S = H_tt - sum_c H_tc H_cc^-1 H_ct
+  for (size_t c = 0; c < cameras.size(); ++c) {
+    const Eigen::LDLT<Eigen::Matrix<double, 6, 6>> h_cc_inverse(h_cc[c]);
+    if (h_cc_inverse.info() != Eigen::Success) continue;
+    std::map<int, Eigen::Matrix<double, 6, 6>> solved;  // H_cc^-1 H_cb
+    for (const auto& [b, h_cb] : h_ct[c]) solved[b] = h_cc_inverse.solve(h_cb);
+    for (const auto& [a, h_ca] : h_ct[c]) {
+      for (const auto& [b, x_b] : solved) h_tt.block<6, 6>(6 * a, 6 * b) -= h_ca.transpose() * x_b;
+    }
+  }
+  const Eigen::LDLT<Eigen::MatrixXd> s_inverse(h_tt);
+  if (s_inverse.info() != Eigen::Success || s_inverse.vectorD().minCoeff() <= 0) {
     out->covariance_note = "the adjustment's covariance could not be computed (rank deficient)";
     return;
   }
-  const int n = static_cast<int>(result.ids.size()) * 6;
-  result.covariance.resize(n, n);
-  if (!covariance.GetCovarianceMatrixInTangentSpace(blocks, result.covariance.data())) {
-    out->covariance_note = "the adjustment's covariance could not be extracted";
-    return;
-  }
-  // Ceres' covariance is for unit-variance residuals: scale by the a
-  // posteriori variance of a residual, sum r^2 / (m - n).
-  double cost = 0;
-  ceres::Problem::EvaluateOptions eval;
-  eval.apply_loss_function = false;
-  std::vector<double> residuals;
-  problem->Evaluate(eval, &cost, &residuals, nullptr, nullptr);
+  // For unit-variance residuals; scale by the a posteriori variance of a
+  // residual, sum r^2 / (m - n).
   const double dof = static_cast<double>(residuals.size()) - free_parameters;
   const double variance = dof > 0 ? 2.0 * cost / dof : 1.0;
-  result.covariance = (result.covariance * variance).eval();  // Eigen's storage is column-major; symmetric anyway
+  result.covariance = s_inverse.solve(Eigen::MatrixXd::Identity(n_tags, n_tags)) * variance;
   out->covariance = std::move(result);
 }
 
@@ -249,11 +297,15 @@ GlobalAdjustmentSummary AdjustGlobally(const std::vector<FrameState*>& frames, s
   solver.gradient_tolerance = 1e-14;
   solver.logging_type = ceres::SILENT;
   ceres::Solver::Summary summary;
+  const auto t0 = std::chrono::steady_clock::now();
   ceres::Solve(solver, &problem, &summary);
+  const auto t1 = std::chrono::steady_clock::now();
+  out.solve_s = std::chrono::duration<double>(t1 - t0).count();
   out.converged = summary.termination_type == ceres::CONVERGENCE;
   out.iterations = static_cast<int>(summary.iterations.size());
   out.final_rms_px = RmsOf(&problem);
-  if (options.compute_covariance) ComputeCovariance(&problem, tags, free_parameters, &out);
+  if (options.compute_covariance) ComputeCovariance(&problem, frames, tags, free_parameters, &out);
+  out.covariance_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count();
   return out;
 }
 

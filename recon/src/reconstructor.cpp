@@ -321,6 +321,8 @@ ReconstructionResult Reconstructor::Finish() {
     result.global_adjustment_converged = summary.converged;
     result.covariance = summary.covariance;
     result.covariance_note = summary.covariance_note;
+    result.global_adjustment_s = summary.solve_s;
+    result.covariance_s = summary.covariance_s;
   }
   // Reprojection statistics in pixels, through the full camera model.
   double sum_all = 0;

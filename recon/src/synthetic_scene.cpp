@@ -73,13 +73,18 @@ SyntheticScene MakeSyntheticBoxScene(const SyntheticSceneOptions& o) {
   scene.largest_dimension_m = std::sqrt(o.box_x * o.box_x + o.box_y * o.box_y + o.box_z * o.box_z);
 
   std::normal_distribution<double> noise(0.0, o.noise_px);
+  std::mt19937 noise_rng(o.noise_seed != 0 ? o.noise_seed : o.seed * 7919u + 1u);
   const Eigen::Vector3d middle(0, 0, 0.5 * o.box_z);
   for (int i = 0; i < o.frames; ++i) {
-    const double a = o.arc_deg * M_PI / 180.0 * i / std::max(1, o.frames - 1) + 0.3 * unit(rng);
-    const double d = o.min_distance_m + unit(rng) * (o.max_distance_m - o.min_distance_m);
-    const double height = o.box_z * (0.8 + 0.8 * unit(rng));
+    const double s = static_cast<double>(i) / std::max(1, o.frames - 1);
+    const double a = o.arc_deg * M_PI / 180.0 * s + (o.smooth_path ? 0.0 : 0.3 * unit(rng));
+    const double wave = 0.5 + 0.5 * std::sin(2 * M_PI * 3 * s);
+    const double d = o.min_distance_m + (o.smooth_path ? wave : unit(rng)) * (o.max_distance_m - o.min_distance_m);
+    const double height = o.box_z * (0.8 + 0.8 * (o.smooth_path ? 1 - wave : unit(rng)));
     const Eigen::Vector3d centre(d * std::cos(a), d * std::sin(a), height);
-    const Eigen::Vector3d look = middle + Eigen::Vector3d(0.1 * (unit(rng) - 0.5), 0.1 * (unit(rng) - 0.5), 0.0);
+    const Eigen::Vector3d look =
+        middle + (o.smooth_path ? Eigen::Vector3d::Zero()
+                                : Eigen::Vector3d(0.1 * (unit(rng) - 0.5), 0.1 * (unit(rng) - 0.5), 0.0));
     const Rigid3d cam_from_world = LookAt(centre, look);
     scene.cam_from_world.push_back(cam_from_world);
     DetectionSet set;
@@ -89,7 +94,7 @@ SyntheticScene MakeSyntheticBoxScene(const SyntheticSceneOptions& o) {
       TagDetection det;
       det.id = id;
       for (int k = 0; k < 4; ++k) {
-        det.corners[k] = scene.camera.Project(cam_from_world * corners[k]) + Eigen::Vector2d(noise(rng), noise(rng));
+        det.corners[k] = scene.camera.Project(cam_from_world * corners[k]) + Eigen::Vector2d(noise(noise_rng), noise(noise_rng));
       }
       det.decision_margin = 100;
       set.tags.push_back(det);

@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include "tagsfm/recon/alignment.h"
+#include "tagsfm/recon/measurement.h"
 #include "tagsfm/recon/synthetic_scene.h"
 #include "tagsfm/recon/tag_geometry.h"
 
@@ -128,6 +129,53 @@ TEST(Reconstructor, CreateRejectsBadInputNamingTheField) {
   auto bad_size = Reconstructor::Create(camera, targets, std::nullopt, {});
   ASSERT_FALSE(bad_size.has_value());
   EXPECT_NE(bad_size.error().message.find("size_m"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace tagsfm
+
+namespace tagsfm {
+namespace {
+
+TEST(ReconstructorSlow, CovarianceSigmaMatchesTheSpreadOverNoiseDraws) {
+  // The same scene under 16 independent noise draws: the spread of a
+  // measured distance must match the sigma the adjustment predicts. With 16
+  // draws the sample standard deviation is within a factor ~1.4 of the true
+  // one (chi-square, 95 %); the bounds allow 0.6x-1.7x.
+  SyntheticSceneOptions options;
+  options.frames = 20;
+  options.noise_px = 0.2;
+  std::vector<double> distances, sigmas;
+  TagId a = -1, b = -1;
+  for (std::uint32_t draw = 1; draw <= 16; ++draw) {
+    options.noise_seed = draw;
+    const SyntheticScene scene = MakeSyntheticBoxScene(options);
+    TargetConfig targets;
+    targets.size_m = options.tag_size_m;
+    auto recon = Reconstructor::Create(scene.camera, targets, std::nullopt, {});
+    ASSERT_TRUE(recon.has_value());
+    for (const auto& d : scene.detections) (*recon)->AddFrame(d);
+    const ReconstructionResult result = (*recon)->Finish();
+    ASSERT_TRUE(result.covariance.has_value()) << result.covariance_note;
+    // The same two learned tags in every draw (the layout is fixed).
+    if (a < 0) {
+      a = result.covariance->ids.front();
+      b = result.covariance->ids.back();
+    }
+    const auto m = MeasureDistance(result.Targets(), result.covariance, {a, -1}, {b, -1});
+    ASSERT_TRUE(m.has_value());
+    ASSERT_TRUE(m->sigma_m.has_value());
+    distances.push_back(m->distance_m);
+    sigmas.push_back(*m->sigma_m);
+  }
+  double mean = 0;
+  for (double d : distances) mean += d / distances.size();
+  double spread = 0;
+  for (double d : distances) spread += (d - mean) * (d - mean) / (distances.size() - 1);
+  spread = std::sqrt(spread);
+  const double predicted = Median(sigmas);
+  EXPECT_GT(spread, 0.6 * predicted) << "spread " << spread << " predicted " << predicted;
+  EXPECT_LT(spread, 1.7 * predicted) << "spread " << spread << " predicted " << predicted;
 }
 
 }  // namespace

@@ -70,6 +70,7 @@ struct GlobalAdjustmentSummary {
   bool converged = false;
   int iterations = 0;
   double initial_rms_px = 0, final_rms_px = 0;
+  double solve_s = 0, covariance_s = 0;
   std::optional<TagCovariance> covariance;
   std::string covariance_note;
 };

@@ -23,7 +23,11 @@ struct SyntheticSceneOptions {
   double min_distance_m = 1.5, max_distance_m = 3.0;
   double arc_deg = 300.0;       // how far around the box the cameras go
   double noise_px = 0.1;
-  std::uint32_t seed = 1;
+  // false: each view jitters at random (a photo set); true: distance and
+  // height vary slowly along the arc (a video).
+  bool smooth_path = false;
+  std::uint32_t seed = 1;        // layout and path
+  std::uint32_t noise_seed = 0;  // the pixel noise; 0: derived from seed
 };
 
 struct SyntheticScene {
