@@ -5,7 +5,7 @@
 namespace tagsfm::analysis {
 
 Status ExperimentOptions::Check() const {
-  if (trials < 0) return MakeError("--trials must be >= 1 (got " + std::to_string(trials) + ")");
+  if (trials < 0) return MakeError("--trials must be >= 0 (0: the experiment's default; got " + std::to_string(trials) + ")");
   if (threads < 0) return MakeError("threads must be >= 0 (got " + std::to_string(threads) + ")");
   return Status::Ok();
 }

@@ -59,5 +59,15 @@ TEST(AnalysisPlot, RendersAPngWhenGnuplotIsInstalled) {
   EXPECT_FALSE(std::filesystem::exists(dir.path() / "demo.gnuplot.log"));
 }
 
+TEST(AnalysisPlot, CompactFormatUsesThePaletteTerminal) {
+  EXPECT_NE(GnuplotScript(TwoSeriesResult(), "x.png", PlotFormat::kCompact).find("set terminal png noenhanced"),
+            std::string::npos);
+  testing::TempDir dir;
+  const Result<PlotOutcome> outcome = RenderPlot(TwoSeriesResult(), dir.path() / "demo.png", PlotFormat::kCompact);
+  ASSERT_TRUE(outcome.has_value()) << outcome.error().message;
+  if (*outcome == PlotOutcome::kGnuplotMissing) GTEST_SKIP() << "gnuplot is not installed";
+  EXPECT_GT(std::filesystem::file_size(dir.path() / "demo.png"), 1000u);
+}
+
 }  // namespace
 }  // namespace tagsfm::analysis

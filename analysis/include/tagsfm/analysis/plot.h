@@ -10,14 +10,20 @@
 
 namespace tagsfm::analysis {
 
+// kCairo: anti-aliased PNG (pngcairo), ~150 KB a figure; kCompact: gnuplot's
+// libgd PNG terminal, palette colours, ~5x smaller (for committing to docs/).
+enum class PlotFormat { kCairo, kCompact };
+
 // The gnuplot script that draws `result` into `image_path` (one panel per
 // Panel, one line per series, like the paper's figures).
-std::string GnuplotScript(const ExperimentResult& result, const std::filesystem::path& image_path);
+std::string GnuplotScript(const ExperimentResult& result, const std::filesystem::path& image_path,
+                          PlotFormat format = PlotFormat::kCairo);
 
 enum class PlotOutcome { kWritten, kGnuplotMissing };
 
 // Writes `<image_path without extension>.gp` and runs gnuplot on it. An error
 // when gnuplot runs but fails (its messages are in `<stem>.gnuplot.log`).
-Result<PlotOutcome> RenderPlot(const ExperimentResult& result, const std::filesystem::path& image_path);
+Result<PlotOutcome> RenderPlot(const ExperimentResult& result, const std::filesystem::path& image_path,
+                               PlotFormat format = PlotFormat::kCairo);
 
 }  // namespace tagsfm::analysis
