@@ -9,6 +9,7 @@
 #include <apriltag/tag36h11.h>
 
 #include <chrono>
+#include <ctime>
 #include <cstdio>
 #include <functional>
 #include <iostream>
@@ -51,6 +52,7 @@ Sequence MakeSequence(int width, int height, int frames) {
 
 struct MethodResult {
   double ms_per_frame = 0.0;
+  double cpu_ms_per_frame = 0.0;  // all threads: robust to other load on the machine
   int found = 0;
   int truth = 0;
   int wrong = 0;
@@ -60,9 +62,12 @@ struct MethodResult {
 MethodResult Run(const Sequence& s, const std::function<std::vector<int>(const cv::Mat&, int)>& detect) {
   MethodResult r;
   double seconds = 0.0;
+  double cpu_seconds = 0.0;
   for (size_t f = 0; f < s.frames.size(); ++f) {
     const auto start = Clock::now();
+    const std::clock_t cpu_start = std::clock();
     const std::vector<int> ids = detect(s.frames[f], static_cast<int>(f));
+    cpu_seconds += static_cast<double>(std::clock() - cpu_start) / CLOCKS_PER_SEC;
     seconds += std::chrono::duration<double>(Clock::now() - start).count();
     std::set<int> truth_ids;
     for (const PlacedTag& t : s.truth[f]) truth_ids.insert(t.id);
@@ -70,6 +75,7 @@ MethodResult Run(const Sequence& s, const std::function<std::vector<int>(const c
     for (int id : std::set<int>(ids.begin(), ids.end())) (truth_ids.count(id) ? r.found : r.wrong)++;
   }
   r.ms_per_frame = 1000.0 * seconds / s.frames.size();
+  r.cpu_ms_per_frame = 1000.0 * cpu_seconds / s.frames.size();
   return r;
 }
 
@@ -107,6 +113,7 @@ std::vector<int> Ids(const tagsfm::DetectionSet& set) {
 
 nlohmann::json ToJson(const MethodResult& r) {
   return {{"ms_per_frame", r.ms_per_frame},
+          {"cpu_ms_per_frame", r.cpu_ms_per_frame},
           {"recall", r.truth > 0 ? static_cast<double>(r.found) / r.truth : 0.0},
           {"tags_found", r.found},
           {"tags_in_view", r.truth},
@@ -143,6 +150,11 @@ int main(int argc, char** argv) {
       const tagsfm::Result<tagsfm::DetectionSet> found = tracker->Track(gray, f);
       return found ? Ids(*found) : std::vector<int>{};
     });
+    auto plain_tracker = *tagsfm::TagTracker::Create(unrefined, tagsfm::TagTrackerOptions{});
+    results["tagsfm_tracking_without_refinement"] = Run(s, [&](const cv::Mat& gray, int f) {
+      const tagsfm::Result<tagsfm::DetectionSet> found = plain_tracker->Track(gray, f);
+      return found ? Ids(*found) : std::vector<int>{};
+    });
     std::shared_ptr<void> keep_defaults, keep_d2t2;
     results["libapriltag_defaults"] = Run(s, PlainAprilTag(0, 0.0f, &keep_defaults));
     results["libapriltag_decimate2_threads2"] = Run(s, PlainAprilTag(2, 2.0f, &keep_d2t2));
@@ -176,6 +188,11 @@ int main(int argc, char** argv) {
     nlohmann::json ratios;
     for (const auto& [name, r] : results) ratios[name + "_vs_libapriltag_defaults"] = r.ms_per_frame / base;
     ratios["libapriltag_decimate2_threads2_over_tagsfm_tracking"] = d2t2 / results["tagsfm_tracking"].ms_per_frame;
+    ratios["libapriltag_decimate2_threads2_over_tagsfm_tracking_cpu"] =
+        results["libapriltag_decimate2_threads2"].cpu_ms_per_frame / results["tagsfm_tracking"].cpu_ms_per_frame;
+    ratios["libapriltag_decimate2_threads2_over_tagsfm_tracking_without_refinement_cpu"] =
+        results["libapriltag_decimate2_threads2"].cpu_ms_per_frame /
+        results["tagsfm_tracking_without_refinement"].cpu_ms_per_frame;
     res["time_ratios"] = ratios;
     res["tracking_stats"] = {{"frames", tracker->stats().frames},
                              {"full_frame_detections", tracker->stats().full_frame_detections},

@@ -118,7 +118,7 @@ class EdgeModel {
 // band's centroid, so that the angle and the offset are decoupled). Stops
 // when a step moves the line by less than 1e-4 px.
 bool FitEdgeModel(const std::vector<BandPixel>& band, const EdgeModel& model, double half_length,
-                  EdgeParams* params) {
+                  int max_iterations, EdgeParams* params) {
   if (band.size() < 12) return false;
   auto cost_of = [&](const EdgeParams& e) {
     double cost = 0.0;
@@ -131,7 +131,7 @@ bool FitEdgeModel(const std::vector<BandPixel>& band, const EdgeModel& model, do
   };
   double lambda = 1e-3;
   double cost = -1.0;
-  for (int iteration = 0; iteration < 10; ++iteration) {
+  for (int iteration = 0; iteration < max_iterations; ++iteration) {
     Eigen::Matrix<double, 5, 5> normal_matrix = Eigen::Matrix<double, 5, 5>::Zero();
     Eigen::Matrix<double, 5, 1> gradient = Eigen::Matrix<double, 5, 1>::Zero();
     Eigen::Matrix<double, 5, 1> j;
@@ -327,7 +327,9 @@ bool RefineCornersByEdgeLines(const cv::Mat& gray8, const TagLayout& layout, Qua
       e.rho = lines[i].offset - lines[i].normal.dot(origin);  // relative to the band's centroid
       if (pass == 0) StartLevels(band, &e);
       const double half_length = 0.5 * (current[(i + 1) % 4] - current[i]).norm();
-      if (!FitEdgeModel(band, EdgeModel(RowsBehindEdge(layout, i)), half_length, &e)) return false;
+      // The second pass starts at the first's minimum: a few steps suffice.
+      const int max_iterations = pass == 0 ? 10 : 4;
+      if (!FitEdgeModel(band, EdgeModel(RowsBehindEdge(layout, i)), half_length, max_iterations, &e)) return false;
       lines[i].normal = Eigen::Vector2d(std::cos(e.theta), std::sin(e.theta));
       lines[i].offset = e.rho + lines[i].normal.dot(origin);
     }

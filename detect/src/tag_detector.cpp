@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <memory>
+#include <thread>
 #include <unordered_map>
 
 #include <apriltag/apriltag.h>
@@ -77,9 +78,9 @@ class AprilTagDetector final : public TagDetector {
       for (int k = 0; k < 4; ++k) {
         tag.corners[k] = Eigen::Vector2d(det->p[k][0] + kAprilTagToOpenCvShift, det->p[k][1] + kAprilTagToOpenCvShift);
       }
-      Refine(gray8, &tag);
       result.tags.push_back(tag);
     }
+    RefineAll(gray8, &result.tags);
     std::sort(result.tags.begin(), result.tags.end(),
               [](const TagDetection& a, const TagDetection& b) { return a.id < b.id; });
     return result;
@@ -99,8 +100,27 @@ class AprilTagDetector final : public TagDetector {
     }
   }
 
+  // Tags are refined independently: on `threads` threads when there are
+  // enough of them to pay for starting the threads.
+  void RefineAll(const cv::Mat& gray8, std::vector<TagDetection>* tags) {
+    if (options_.refinement == CornerRefinement::kNone || options_.refinement == CornerRefinement::kAprilTag) return;
+    for (const TagDetection& tag : *tags) Layout(tag.id);  // fill the cache before threads read it
+    const int workers = std::min<int>(options_.threads, static_cast<int>(tags->size()) / 2);
+    if (workers <= 1) {
+      for (TagDetection& tag : *tags) Refine(gray8, &tag);
+      return;
+    }
+    std::vector<std::thread> pool;
+    for (int w = 0; w < workers; ++w) {
+      pool.emplace_back([&, w] {
+        for (size_t i = w; i < tags->size(); i += workers) Refine(gray8, &(*tags)[i]);
+      });
+    }
+    for (std::thread& t : pool) t.join();
+  }
+
   // A failed refinement keeps libapriltag's corners: a tag is never lost to it.
-  void Refine(const cv::Mat& gray8, TagDetection* tag) {
+  void Refine(const cv::Mat& gray8, TagDetection* tag) const {
     switch (options_.refinement) {
       case CornerRefinement::kNone:
       case CornerRefinement::kAprilTag:
@@ -114,6 +134,7 @@ class AprilTagDetector final : public TagDetector {
     }
   }
 
+  // Not thread-safe on a miss: RefineAll fills the cache first.
   const TagLayout& Layout(TagId id) const {
     auto it = layouts_.find(id);
     if (it == layouts_.end()) it = layouts_.emplace(id, detail::LayoutOf(family_.get(), id)).first;
