@@ -37,22 +37,24 @@ void AddPoseBlocks(ceres::Problem* problem, PoseParams* pose) {
   problem->AddParameterBlock(pose->t, 3);
 }
 
-// Adds the four corner residuals of one observation; returns how many.
+// Adds the residual blocks of one observation; returns how many.
 int AddTagResiduals(ceres::Problem* problem, FrameState* frame, const TagObservation& obs, MapTag* tag, double fx,
-                    double fy, ceres::LossFunction* loss) {
+                    double fy, double huber_px) {
+  ceres::LossFunction* loss = SharedLoss(huber_px);
+  // A whole tag's block holds four corners: its squared error is ~4 times a
+  // corner's, so its robust scale is twice a corner's.
+  ceres::LossFunction* tag_loss = SharedLoss(2 * huber_px);
   if (tag->known) {
     for (int k = 0; k < 4; ++k) {
       problem->AddResidualBlock(FixedPointReprojectionError::Create(obs.normalized[k], tag->known_corners[k], fx, fy),
                                 loss, frame->cam_from_world.q, frame->cam_from_world.t);
     }
-  } else {
-    for (int k = 0; k < 4; ++k) {
-      problem->AddResidualBlock(
-          TagCornerReprojectionError::Create(obs.normalized[k], TagCornerInTag(k, tag->size_m), fx, fy), loss,
-          frame->cam_from_world.q, frame->cam_from_world.t, tag->world_from_tag.q, tag->world_from_tag.t);
-    }
+    return 4;
   }
-  return 4;
+  problem->AddResidualBlock(TagReprojectionError::Create(obs.normalized, tag->size_m, fx, fy), tag_loss,
+                            frame->cam_from_world.q, frame->cam_from_world.t, tag->world_from_tag.q,
+                            tag->world_from_tag.t);
+  return 1;
 }
 
 }  // namespace
@@ -82,7 +84,8 @@ void SlidingWindowBundleAdjuster::AddObservation(FrameState* frame, const TagObs
     }
     tags_in_problem_[tag->id] = tag;
   }
-  residuals_per_tag_[tag->id] += AddTagResiduals(problem_.get(), frame, obs, tag, fx_, fy_, SharedLoss(options_.huber_px));
+  AddTagResiduals(problem_.get(), frame, obs, tag, fx_, fy_, options_.huber_px);
+  ++residuals_per_tag_[tag->id];  // observations of the tag in the window
   tags_per_frame_[frame].push_back(tag->id);
 }
 
@@ -112,7 +115,7 @@ void SlidingWindowBundleAdjuster::RemoveOldest() {
   problem_->RemoveParameterBlock(oldest->cam_from_world.q);
   problem_->RemoveParameterBlock(oldest->cam_from_world.t);
   for (TagId id : tags_per_frame_[oldest]) {
-    if ((residuals_per_tag_[id] -= 4) > 0) continue;
+    if (--residuals_per_tag_[id] > 0) continue;
     residuals_per_tag_.erase(id);
     auto it = tags_in_problem_.find(id);
     if (it != tags_in_problem_.end()) {
@@ -256,7 +259,6 @@ GlobalAdjustmentSummary AdjustGlobally(const std::vector<FrameState*>& frames, s
                                        double fx, double fy, const BundleAdjusterOptions& options) {
   GlobalAdjustmentSummary out;
   ceres::Problem problem(ProblemOptions());
-  ceres::LossFunction* loss = SharedLoss(options.huber_px);
   int free_parameters = 0;
   std::map<TagId, bool> added;
   for (FrameState* frame : frames) {
@@ -280,7 +282,7 @@ GlobalAdjustmentSummary AdjustGlobally(const std::vector<FrameState*>& frames, s
         AddPoseBlocks(&problem, &frame->cam_from_world);
         free_parameters += 6;
       }
-      residuals += AddTagResiduals(&problem, frame, obs, &tag, fx, fy, loss);
+      residuals += AddTagResiduals(&problem, frame, obs, &tag, fx, fy, options.huber_px);
     }
   }
   if (problem.NumResidualBlocks() == 0) {

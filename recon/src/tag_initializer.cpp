@@ -75,11 +75,8 @@ std::optional<TagInitialization> InitializeTag(const std::vector<TagView>& views
   ceres::Problem problem;
   for (const auto& v : views) {
     cams.push_back(v.frame->cam_from_world);
-    for (int k = 0; k < 4; ++k) {
-      problem.AddResidualBlock(
-          TagCornerReprojectionError::Create(v.observation->normalized[k], TagCornerInTag(k, size_m), fx, fy),
-          new ceres::HuberLoss(1.0), cams.back().q, cams.back().t, tag.q, tag.t);
-    }
+    problem.AddResidualBlock(TagReprojectionError::Create(v.observation->normalized, size_m, fx, fy),
+                             new ceres::HuberLoss(2.0), cams.back().q, cams.back().t, tag.q, tag.t);
     problem.SetParameterBlockConstant(cams.back().q);
     problem.SetParameterBlockConstant(cams.back().t);
   }

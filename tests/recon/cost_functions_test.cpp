@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include "tagsfm/recon/pose_params.h"
+#include "tagsfm/recon/tag_geometry.h"
 
 namespace tagsfm {
 namespace {
@@ -49,6 +50,26 @@ TEST(CostFunctions, TagCornerReprojectionErrorDerivatives) {
   PoseParams tag = SomePose(1.2, 0.3, 0.4, {0.3, -0.2, 0.5});
   ExpectDerivativesMatch(TagCornerReprojectionError::Create({0.1, 0.05}, {0.03, -0.03, 0}, 1000, 1000),
                          {&quaternion, nullptr, &quaternion, nullptr}, {cam.q, cam.t, tag.q, tag.t});
+}
+
+TEST(CostFunctions, TagReprojectionErrorDerivativesAndAgreementWithPerCorner) {
+  ceres::EigenQuaternionManifold quaternion;
+  PoseParams cam = SomePose(0.2, 0.1, -0.1, {0.05, 0.0, 2.5});
+  PoseParams tag = SomePose(1.2, 0.3, 0.4, {0.3, -0.2, 0.5});
+  const std::array<Eigen::Vector2d, 4> observed{Eigen::Vector2d(0.1, 0.05), Eigen::Vector2d(0.12, 0.05),
+                                                Eigen::Vector2d(0.12, 0.07), Eigen::Vector2d(0.1, 0.07)};
+  ExpectDerivativesMatch(TagReprojectionError::Create(observed, 0.06, 1000, 990),
+                         {&quaternion, nullptr, &quaternion, nullptr}, {cam.q, cam.t, tag.q, tag.t});
+  // The four-corner block equals the four per-corner residuals.
+  double block[8];
+  ASSERT_TRUE(TagReprojectionError(observed, 0.06, 1000, 990)(cam.q, cam.t, tag.q, tag.t, block));
+  for (int k = 0; k < 4; ++k) {
+    double corner[2];
+    ASSERT_TRUE(TagCornerReprojectionError(observed[k], TagCornerInTag(k, 0.06), 1000, 990)(cam.q, cam.t, tag.q, tag.t,
+                                                                                          corner));
+    EXPECT_NEAR(block[2 * k], corner[0], 1e-9);
+    EXPECT_NEAR(block[2 * k + 1], corner[1], 1e-9);
+  }
 }
 
 TEST(CostFunctions, TagEdgeLengthErrorDerivativesAndValue) {

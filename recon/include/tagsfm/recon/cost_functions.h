@@ -6,6 +6,8 @@
 #include <ceres/autodiff_cost_function.h>
 #include <ceres/rotation.h>
 
+#include <array>
+
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 
@@ -86,6 +88,35 @@ struct TagCornerReprojectionError {
   Eigen::Vector2d observed;
   Eigen::Vector3d corner;
   double fx, fy;
+};
+
+// All four corners of one tag observation in one block (8 residuals): the
+// camera-from-tag transform is computed once instead of four times, and a
+// robust loss treats the tag as one unit (a misdetected tag is wrong as a
+// whole). Same blocks and geometry as TagCornerReprojectionError.
+struct TagReprojectionError {
+  TagReprojectionError(const std::array<Eigen::Vector2d, 4>& observed_normalized, double size_m, double fx, double fy)
+      : observed(observed_normalized), half(0.5 * size_m), fx(fx), fy(fy) {}
+  template <class T>
+  bool operator()(const T* cam_q, const T* cam_t, const T* tag_q, const T* tag_t, T* residual) const {
+    const Eigen::Map<const Eigen::Quaternion<T>> cam_r(cam_q), tag_r(tag_q);
+    const Eigen::Map<const Eigen::Matrix<T, 3, 1>> cam_tr(cam_t), tag_tr(tag_t);
+    const Eigen::Matrix<T, 3, 3> r = (cam_r * tag_r).toRotationMatrix();
+    const Eigen::Matrix<T, 3, 1> t = cam_r * tag_tr + cam_tr;
+    static constexpr double kSigns[4][2] = {{-1, -1}, {1, -1}, {1, 1}, {-1, 1}};
+    for (int k = 0; k < 4; ++k) {
+      const Eigen::Matrix<T, 3, 1> p = r.col(0) * T(kSigns[k][0] * half) + r.col(1) * T(kSigns[k][1] * half) + t;
+      cost_detail::ProjectResidual(p, observed[k], fx, fy, residual + 2 * k);
+    }
+    return true;
+  }
+  static ceres::CostFunction* Create(const std::array<Eigen::Vector2d, 4>& observed_normalized, double size_m,
+                                     double fx, double fy) {
+    return new ceres::AutoDiffCostFunction<TagReprojectionError, 8, 4, 3, 4, 3>(
+        new TagReprojectionError(observed_normalized, size_m, fx, fy));
+  }
+  std::array<Eigen::Vector2d, 4> observed;
+  double half, fx, fy;
 };
 
 // Soft known-size constraint between two free corner points (the relaxed tag
