@@ -228,6 +228,22 @@ void Reconstructor::Register(FrameState& frame, bool adjust, FrameReport* report
     }
     ++report->tags_used;
   }
+  if (points.empty() && adjust) {
+    // The chain of views would break here: put the frame's tags that earlier
+    // registered frames saw into the map now, from the views there are (the
+    // adjustments refine them as more views come).
+    std::vector<TagId> forced = MapPendingTagsNow(frame);
+    for (TagId id : forced) {
+      const TagCorners corners = tags_.at(id).CornersInWorld();
+      const TagObservation* obs = frame.Find(id);
+      for (int k = 0; k < 4; ++k) {
+        points.push_back(corners[k]);
+        observed.push_back(obs->normalized[k]);
+      }
+      ++report->tags_used;
+    }
+    for (TagId id : forced) window_->AddTag(&tags_.at(id));
+  }
   if (points.empty()) {
     frame.reason = "none of its " + std::to_string(frame.tags.size()) + " tags is in the map yet";
     return;
@@ -286,6 +302,50 @@ int Reconstructor::MapPendingTags(FrameState& frame, std::vector<TagId>* added) 
     added->push_back(obs.id);
   }
   return static_cast<int>(added->size());
+}
+
+std::vector<TagId> Reconstructor::MapPendingTagsNow(const FrameState& frame) {
+  // Each candidate pose of a pending tag (the IPPE pair of each earlier
+  // view) implies, with the pair of this frame, a pose of this frame. Views
+  // of a walk around a scene change little from one to the next, so the
+  // candidate whose implied pose is nearest the last registered frame's wins.
+  std::vector<TagId> added;
+  const std::optional<Rigid3d> previous = PreviousPose(frame);
+  for (const auto& obs : frame.tags) {
+    auto it = pending_.find(obs.id);
+    if (it == pending_.end() || it->second.empty()) continue;
+    std::vector<TagView> views;
+    for (FrameState* f : it->second) views.push_back({f, f->Find(obs.id)});
+    const double size = targets_.SizeOf(obs.id);
+    const auto here = TagPoseCandidates(obs.normalized, size);
+    std::optional<Rigid3d> best;
+    double best_score = INFINITY;
+    for (size_t v = views.size() > 3 ? views.size() - 3 : 0; v < views.size(); ++v) {
+      const Rigid3d world_from_cam = views[v].frame->cam_from_world.ToRigid().Inverse();
+      for (const Rigid3d& cam_from_tag : TagPoseCandidates(views[v].observation->normalized, size)) {
+        const Rigid3d world_from_tag = world_from_cam * cam_from_tag;
+        const double rms = TagPoseRmsPx(world_from_tag, size, views, fx_, fy_);
+        if (!(rms <= options_.max_tag_init_rms_px)) continue;
+        for (const Rigid3d& here_from_tag : here) {
+          const Rigid3d implied = here_from_tag * world_from_tag.Inverse();
+          const double score = previous ? RotationAngleDeg(implied.rotation, previous->rotation) : rms;
+          if (score < best_score) {
+            best_score = score;
+            best = world_from_tag;
+          }
+        }
+      }
+    }
+    if (!best) continue;
+    MapTag tag;
+    tag.id = obs.id;
+    tag.size_m = size;
+    tag.world_from_tag.Set(*best);
+    tags_[obs.id] = tag;
+    pending_.erase(it);
+    added.push_back(obs.id);
+  }
+  return added;
 }
 
 bool Reconstructor::IsKeyframe(const FrameState& frame, bool added_tags) const {

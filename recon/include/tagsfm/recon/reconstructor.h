@@ -83,6 +83,8 @@ class Reconstructor {
   // Pose from the mapped tags it sees, then map new tags and adjust.
   void Register(FrameState& frame, bool adjust, FrameReport* report);
   int MapPendingTags(FrameState& frame, std::vector<TagId>* added);
+  // Maps the frame's pending tags from the views they have, however few.
+  std::vector<TagId> MapPendingTagsNow(const FrameState& frame);
   bool IsKeyframe(const FrameState& frame, bool added_tags) const;
   std::optional<Rigid3d> PreviousPose(const FrameState& frame) const;
   void CountMethod(const FrameState& frame);
