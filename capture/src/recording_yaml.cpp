@@ -53,21 +53,23 @@ Status TargetConfig::Check() const {
   return Status::Ok();
 }
 
-Result<RecordingInfo> ReadRecordingYaml(const std::filesystem::path& yaml_path) {
-  const std::string file = yaml_path.string();
-  YAML::Node root;
+namespace {
+
+Result<YAML::Node> LoadYaml(const std::string& file) {
   try {
-    root = YAML::LoadFile(file);
+    YAML::Node root = YAML::LoadFile(file);
+    if (!root.IsMap()) return MakeError(file + ": expected a mapping at the top level");
+    return root;
   } catch (const YAML::BadFile&) {
     return MakeError(file + ": cannot open");
   } catch (const YAML::Exception& e) {
     return MakeError(file + ": not valid YAML (line " + std::to_string(e.mark.line + 1) + ")");
   }
-  if (!root.IsMap()) return MakeError(file + ": expected a mapping at the top level");
-  std::string format;
-  if (Status s = ReadField(root, "format", file + ": ", &format, true); !s) return s.error();
-  if (format != "tagsfm-recording/1") return MakeError(file + ": format must be 'tagsfm-recording/1' (got '" + format + "')");
+}
 
+// The `camera:` and `targets:` blocks, shared by recording.yaml and the
+// daemon's config file.
+Result<RecordingInfo> ParseCameraAndTargets(const YAML::Node& root, const std::string& file) {
   RecordingInfo info;
   if (const YAML::Node cam = root["camera"]; cam && !cam.IsNull()) {
     const std::string where = file + ": camera.";
@@ -101,6 +103,25 @@ Result<RecordingInfo> ReadRecordingYaml(const std::filesystem::path& yaml_path) 
   if (!s) return s.error();
   if (Status check = info.targets.Check(); !check) return MakeError(file + ": " + check.error().message);
   return info;
+}
+
+}  // namespace
+
+Result<RecordingInfo> ReadRecordingYaml(const std::filesystem::path& yaml_path) {
+  const std::string file = yaml_path.string();
+  auto root = LoadYaml(file);
+  if (!root) return root.error();
+  std::string format;
+  if (Status s = ReadField(*root, "format", file + ": ", &format, true); !s) return s.error();
+  if (format != "tagsfm-recording/1") return MakeError(file + ": format must be 'tagsfm-recording/1' (got '" + format + "')");
+  return ParseCameraAndTargets(*root, file);
+}
+
+Result<RecordingInfo> ReadCameraAndTargets(const std::filesystem::path& yaml_path) {
+  const std::string file = yaml_path.string();
+  auto root = LoadYaml(file);
+  if (!root) return root.error();
+  return ParseCameraAndTargets(*root, file);
 }
 
 std::string RecordingYamlText(const RecordingInfo& info) {

@@ -42,6 +42,9 @@ struct FrameEntry {
 // Parses recording.yaml; errors name the file and the field.
 Result<RecordingInfo> ReadRecordingYaml(const std::filesystem::path& yaml_path);
 std::string RecordingYamlText(const RecordingInfo& info);
+// The same `camera:` and `targets:` blocks from any YAML file (the daemon's
+// config), without recording.yaml's `format:` line.
+Result<RecordingInfo> ReadCameraAndTargets(const std::filesystem::path& yaml_path);
 
 class RecordingReader {
  public:
