@@ -27,6 +27,10 @@ const std::vector<ExperimentInfo>& ExperimentCatalogue() {
       {"pipeline", "(beyond the paper)",
        "2-50 tags: EPnP vs EPnP+LM vs tagsfm's pose estimator vs the error model, corner noise 0.25-3 px", 1234,
        "cameras of the bradley-like set"},
+      {"pipeline-map", "(beyond the paper)",
+       "whole target pipeline (Reconstructor, sliding-window + final BA, no known map) vs distance 1.25-3.5 m and "
+       "corner noise 0.1-1 px",
+       12, "walk-arounds (tag layouts and camera paths) per condition"},
   };
   return catalogue;
 }
@@ -46,7 +50,8 @@ Result<ExperimentResult> RunExperiment(const std::string& name, const Experiment
   const std::pair<const char*, Runner> runners[] = {
       {"depth-image-noise", &RunDepthImageNoise},     {"depth-point-noise", &RunDepthPointNoise},
       {"targets-image-noise", &RunTargetsImageNoise}, {"targets-point-noise", &RunTargetsPointNoise},
-      {"target-distribution", &RunTargetDistribution}, {"pipeline", &RunPipeline}};
+      {"target-distribution", &RunTargetDistribution}, {"pipeline", &RunPipeline},
+      {"pipeline-map", &RunPipelineMap}};
   for (const auto& [runner_name, runner] : runners) {
     if (name != runner_name) continue;
     const auto start = std::chrono::steady_clock::now();

@@ -1,5 +1,6 @@
-// The sweep beyond the paper: the project's pose estimator and the error
-// model on tag corners (Slow: ~5 s in Release, the estimator runs RANSAC).
+// The sweeps beyond the paper: the project's pose estimator and the error
+// model on tag corners, and the whole target pipeline (Slow: ~5-10 s each in
+// Release; the estimator runs RANSAC and bundle adjustment).
 #include <gtest/gtest.h>
 
 #include "tagsfm/analysis/experiments.h"
@@ -47,6 +48,28 @@ TEST(AnalysisPipelineSlow, EstimatorsReachTheErrorModelsBoundWithEnoughTags) {
             5.0 * Value(*result, "0.25", "model", 2, "rotation_error_deg", &Summary::rms));
   EXPECT_LT(Value(*result, "0.25", "tagsfm", 2, "rotation_error_deg", &Summary::rms),
             1.5 * Value(*result, "0.25", "model", 2, "rotation_error_deg", &Summary::rms));
+}
+
+// The whole target pipeline (no known map) on walk-arounds of the armoire-like box.
+TEST(AnalysisPipelineSlow, MapErrorGrowsWithNoiseAndDistance) {
+  ExperimentOptions options;
+  options.trials = 5;
+  options.seed = 5;
+  const Result<ExperimentResult> result = RunExperiment("pipeline-map", options);
+  ASSERT_TRUE(result.has_value()) << result.error().message;
+  auto median = [&](const char* noise, double distance, const char* metric) {
+    const ConditionRow* row = result->Find("armoire-box", noise, distance, metric);
+    EXPECT_NE(row, nullptr) << noise << " " << distance << " " << metric;
+    return row ? row->stats.median : 0.0;
+  };
+  // 10x the corner noise: the map error grows (7x in the full run; 3x leaves
+  // room for 5 walk-arounds and for failures at 1 px).
+  EXPECT_GT(median("1", 1.75, "target_corner_rms_mm"), 3 * median("0.1", 1.75, "target_corner_rms_mm"));
+  // Twice the distance: camera centres at least 2x worse (4x in the full run:
+  // distance x angular error, and fewer pixels per tag).
+  EXPECT_GT(median("0.1", 3.5, "camera_centre_median_mm"), 2 * median("0.1", 1.75, "camera_centre_median_mm"));
+  // Sub-millimetre map at 0.1 px and 1.75 m (0.2 mm in the full run).
+  EXPECT_LT(median("0.1", 1.75, "target_corner_rms_mm"), 1.0);
 }
 
 }  // namespace

@@ -7,6 +7,7 @@
 //   targets-point-noise  4.2.2, fig. 6: EPnP pose vs number of correspondences, 3D noise
 //   target-distribution  4.2.3, fig. 7: 50 points clustered vs spread
 //   pipeline             EPnP vs EPnP+LM vs tagsfm's estimator vs the error model, on tag corners
+//   pipeline-map         the whole target pipeline (recon's Reconstructor, no known map) vs distance and noise
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -45,5 +46,6 @@ ExperimentResult RunTargetsImageNoise(const ExperimentOptions& options);
 ExperimentResult RunTargetsPointNoise(const ExperimentOptions& options);
 ExperimentResult RunTargetDistribution(const ExperimentOptions& options);
 ExperimentResult RunPipeline(const ExperimentOptions& options);
+ExperimentResult RunPipelineMap(const ExperimentOptions& options);
 
 }  // namespace tagsfm::analysis
