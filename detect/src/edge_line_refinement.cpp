@@ -13,6 +13,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <limits>
 #include <vector>
 
 #include <Eigen/Dense>
@@ -114,59 +115,52 @@ class EdgeModel {
   std::array<std::vector<bool>, kRows> rows_;
 };
 
-// Levenberg-Marquardt on the band's pixels (positions relative to the
-// band's centroid, so that the angle and the offset are decoupled). Stops
-// when a step moves the line by less than 1e-4 px.
+// Gauss-Newton on the band's pixels (positions relative to the band's
+// centroid, so that the angle and the offset are decoupled), one pass over
+// the pixels per iteration: a step that raised the cost, seen at the next
+// pass, is taken back and halved. Stops when a step moves the line by less
+// than 1e-4 px.
 bool FitEdgeModel(const std::vector<BandPixel>& band, const EdgeModel& model, double half_length,
                   int max_iterations, EdgeParams* params) {
   if (band.size() < 12) return false;
-  auto cost_of = [&](const EdgeParams& e) {
-    double cost = 0.0;
-    const Eigen::Vector2d normal(std::cos(e.theta), std::sin(e.theta));
-    for (const BandPixel& p : band) {
-      const double r = model.Evaluate(p, e, normal, nullptr) - p.value;
-      cost += r * r;
-    }
-    return cost;
-  };
-  double lambda = 1e-3;
-  double cost = -1.0;
+  EdgeParams previous = *params;
+  Eigen::Matrix<double, 5, 1> last_step = Eigen::Matrix<double, 5, 1>::Zero();
+  double previous_cost = std::numeric_limits<double>::infinity();
   for (int iteration = 0; iteration < max_iterations; ++iteration) {
     Eigen::Matrix<double, 5, 5> normal_matrix = Eigen::Matrix<double, 5, 5>::Zero();
     Eigen::Matrix<double, 5, 1> gradient = Eigen::Matrix<double, 5, 1>::Zero();
     Eigen::Matrix<double, 5, 1> j;
-    double current_cost = 0.0;
+    double cost = 0.0;
     const Eigen::Vector2d normal(std::cos(params->theta), std::sin(params->theta));
     for (const BandPixel& p : band) {
       const double r = model.Evaluate(p, *params, normal, &j) - p.value;
       normal_matrix.selfadjointView<Eigen::Lower>().rankUpdate(j);
       gradient += j * r;
-      current_cost += r * r;
+      cost += r * r;
     }
-    normal_matrix = normal_matrix.selfadjointView<Eigen::Lower>();
-    cost = current_cost;
-    bool improved = false;
-    for (int attempt = 0; attempt < 5 && !improved; ++attempt) {
-      Eigen::Matrix<double, 5, 5> damped = normal_matrix;
-      damped.diagonal() *= 1.0 + lambda;
-      const Eigen::Matrix<double, 5, 1> step = damped.ldlt().solve(-gradient);
+    Eigen::Matrix<double, 5, 1> step;
+    if (cost > previous_cost) {
+      // Overshot: back to the previous point, half the step.
+      *params = previous;
+      step = 0.5 * last_step;
+    } else {
+      normal_matrix = normal_matrix.selfadjointView<Eigen::Lower>();
+      normal_matrix.diagonal() *= 1.0 + 1e-6;
+      step = normal_matrix.ldlt().solve(-gradient);
       if (!step.allFinite()) return false;
-      EdgeParams next = *params;
-      next.theta += step(0);
-      next.rho += step(1);
-      next.border += step(2);
-      next.outside += step(3);
-      next.sigma = std::clamp(next.sigma + step(4), 0.2, 10.0);
-      if (cost_of(next) < cost) {
-        *params = next;
-        lambda = std::max(1e-7, lambda * 0.3);
-        improved = true;
-        if (std::abs(step(1)) + std::abs(step(0)) * half_length < 1e-4) return true;
-      } else {
-        lambda *= 10.0;
-      }
+      previous = *params;
+      previous_cost = cost;
     }
-    if (!improved) return true;  // no step lowers the cost: at the minimum
+    // A start off by up to a pixel needs no bigger steps than this.
+    step(1) = std::clamp(step(1), -0.5, 0.5);
+    step(4) = std::clamp(step(4), -0.3, 0.3);
+    last_step = step;
+    params->theta += step(0);
+    params->rho += step(1);
+    params->border += step(2);
+    params->outside += step(3);
+    params->sigma = std::clamp(params->sigma + step(4), 0.2, 10.0);
+    if (std::abs(step(1)) + std::abs(step(0)) * half_length < 1e-4) return true;
   }
   return true;
 }
@@ -328,7 +322,7 @@ bool RefineCornersByEdgeLines(const cv::Mat& gray8, const TagLayout& layout, Qua
       if (pass == 0) StartLevels(band, &e);
       const double half_length = 0.5 * (current[(i + 1) % 4] - current[i]).norm();
       // The second pass starts at the first's minimum: a few steps suffice.
-      const int max_iterations = pass == 0 ? 10 : 4;
+      const int max_iterations = pass == 0 ? 5 : 2;
       if (!FitEdgeModel(band, EdgeModel(RowsBehindEdge(layout, i)), half_length, max_iterations, &e)) return false;
       lines[i].normal = Eigen::Vector2d(std::cos(e.theta), std::sin(e.theta));
       lines[i].offset = e.rho + lines[i].normal.dot(origin);

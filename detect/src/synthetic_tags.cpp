@@ -133,9 +133,12 @@ std::vector<PlacedTag> RandomTagPlacements(int width, int height, int count, dou
   const int rows = static_cast<int>((height - side_px) / cell);
   std::vector<PlacedTag> placed;
   const double focal = 1000.0;  // a moderate perspective, like a 60 degree lens
-  for (int i = 0; i < count && i < columns * rows; ++i) {
-    const double cx = side_px / 2 + cell * (i % columns + 0.5) + (unit(rng) - 0.5) * 0.3 * side_px;
-    const double cy = side_px / 2 + cell * (i / columns + 0.5) + (unit(rng) - 0.5) * 0.3 * side_px;
+  const int cells = columns * rows;
+  for (int i = 0; i < count && i < cells; ++i) {
+    // Spread over the whole grid, not packed into its first rows.
+    const int c = static_cast<int>(static_cast<long long>(i) * cells / std::min(count, cells));
+    const double cx = side_px / 2 + cell * (c % columns + 0.5) + (unit(rng) - 0.5) * 0.3 * side_px;
+    const double cy = side_px / 2 + cell * (c / columns + 0.5) + (unit(rng) - 0.5) * 0.3 * side_px;
     const double tilt = max_tilt_deg * M_PI / 180.0 * unit(rng);
     const double tilt_axis = 2.0 * M_PI * unit(rng);
     const double spin = 2.0 * M_PI * unit(rng);
