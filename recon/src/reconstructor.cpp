@@ -150,6 +150,11 @@ bool Reconstructor::TryBootstrap(FrameState& frame) {
   }
   bootstrap_buffer_.push_back(&frame);
   if (bootstrap_buffer_.size() < static_cast<size_t>(options_.bootstrap_max_frames)) return false;
+  StartFromBuffer();
+  return frame.registered;
+}
+
+void Reconstructor::StartFromBuffer() {
   // No two views to decide with: the view with the largest tag starts the map.
   FrameState* best = nullptr;
   double best_area = -1;
@@ -162,9 +167,9 @@ bool Reconstructor::TryBootstrap(FrameState& frame) {
       }
     }
   }
+  if (!best) return;
   StartMapFromOneView(*best);
   RegisterBuffered(best);
-  return frame.registered;
 }
 
 void Reconstructor::StartMapFromOneView(FrameState& frame) {
@@ -365,6 +370,25 @@ bool Reconstructor::IsKeyframe(const FrameState& frame, bool added_tags) const {
 }
 
 ReconstructionResult Reconstructor::Finish() {
+  // Too few frames to wait for a second view: start from the best one.
+  if (!started_ && !bootstrap_buffer_.empty()) StartFromBuffer();
+  // Tags still waiting for views get the views they have (the adjustment
+  // below refines them); the frames that saw them gain observations.
+  std::vector<TagId> waiting;
+  for (const auto& [id, views] : pending_) waiting.push_back(id);
+  for (TagId id : waiting) {
+    auto it = pending_.find(id);
+    std::vector<TagView> views;
+    for (FrameState* f : it->second) views.push_back({f, f->Find(id)});
+    const auto init = InitializeTag(views, targets_.SizeOf(id), fx_, fy_);
+    if (!init || init->rms_px > options_.max_tag_init_rms_px) continue;
+    MapTag tag;
+    tag.id = id;
+    tag.size_m = targets_.SizeOf(id);
+    tag.world_from_tag.Set(init->world_from_tag);
+    tags_[id] = tag;
+    pending_.erase(it);
+  }
   // Frames that came before their tags were mapped get a second chance.
   for (auto& frame : frames_) {
     if (frame.registered || frame.tags.empty() || !started_) continue;

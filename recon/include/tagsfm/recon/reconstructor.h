@@ -79,6 +79,7 @@ class Reconstructor {
   FrameState& MakeFrameState(const DetectionSet& detections);
   bool TryBootstrap(FrameState& frame);
   void StartMapFromOneView(FrameState& frame);
+  void StartFromBuffer();
   void RegisterBuffered(const FrameState* except);
   // Pose from the mapped tags it sees, then map new tags and adjust.
   void Register(FrameState& frame, bool adjust, FrameReport* report);
