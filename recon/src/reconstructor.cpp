@@ -372,8 +372,11 @@ bool Reconstructor::IsKeyframe(const FrameState& frame, bool added_tags) const {
 ReconstructionResult Reconstructor::Finish() {
   // Too few frames to wait for a second view: start from the best one.
   if (!started_ && !bootstrap_buffer_.empty()) StartFromBuffer();
-  // Tags still waiting for views get the views they have (the adjustment
-  // below refines them); the frames that saw them gain observations.
+  // Tags still waiting get the views they have when these span enough angle
+  // (or when there is a single view of everything): a tag seen from one
+  // direction only would add its poorly known depth to the map.
+  int registered_frames = 0;
+  for (const auto& f : frames_) registered_frames += f.registered;
   std::vector<TagId> waiting;
   for (const auto& [id, views] : pending_) waiting.push_back(id);
   for (TagId id : waiting) {
@@ -382,6 +385,10 @@ ReconstructionResult Reconstructor::Finish() {
     for (FrameState* f : it->second) views.push_back({f, f->Find(id)});
     const auto init = InitializeTag(views, targets_.SizeOf(id), fx_, fy_);
     if (!init || init->rms_px > options_.max_tag_init_rms_px) continue;
+    if (registered_frames >= 2 &&
+        MaxViewAngleDeg(views, init->world_from_tag.translation) < options_.min_tag_view_angle_deg) {
+      continue;
+    }
     MapTag tag;
     tag.id = id;
     tag.size_m = targets_.SizeOf(id);
