@@ -220,9 +220,9 @@ std::vector<BandPixel> CollectBand(const cv::Mat& image, const Eigen::Matrix3d& 
     for (BandPixel& p : band) p.position -= origin;
     *band_origin = origin;
   }
-  // A big tag's edge has thousands of pixels; ~1500 evenly spread ones give
-  // the line to well below 0.01 px and keep the fit at ~0.1 ms per edge.
-  constexpr size_t kMaxBandPixels = 1500;
+  // A big tag's edge has thousands of pixels; 400 evenly spread ones (what a
+  // ~40 px tag has) give the line to ~0.01 px at noise 2 and bound the cost.
+  constexpr size_t kMaxBandPixels = 400;
   if (band.size() > kMaxBandPixels) {
     const double stride = static_cast<double>(band.size()) / kMaxBandPixels;
     std::vector<BandPixel> thinned;
