@@ -1,6 +1,8 @@
 #include "tagsfm/eval/ply_reader.h"
 
+#include <algorithm>
 #include <bit>
+#include <cctype>
 #include <cmath>
 #include <cstdint>
 #include <cstring>

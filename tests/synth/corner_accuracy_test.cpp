@@ -118,9 +118,10 @@ void ExpectRecordingCornersExact(const std::vector<double>& distortion) {
   std::printf("worst corner error %.4f px over %d tags\n", worst, measured_tags);
 }
 
-TEST(CornerAccuracy, RecordingWithoutDistortion) { ExpectRecordingCornersExact({}); }
+// Whole recordings take ~10 s each under the sanitizers: Slow suite.
+TEST(CornerAccuracySlow, RecordingWithoutDistortion) { ExpectRecordingCornersExact({}); }
 
-TEST(CornerAccuracy, RecordingWithDistortion) { ExpectRecordingCornersExact({-0.2, 0.05, 0.0008, -0.0005}); }
+TEST(CornerAccuracySlow, RecordingWithDistortion) { ExpectRecordingCornersExact({-0.2, 0.05, 0.0008, -0.0005}); }
 
 }  // namespace
 }  // namespace tagsfm::synth
