@@ -164,7 +164,9 @@ int RunReplay(const ReplayArgs& args) {
                  calibration->views, camera.fx, camera.fy, camera.cx, camera.cy, calibration->rms_px);
   }
 
-  auto recon = Reconstructor::Create(camera, info.targets, known_map, {});
+  ReconstructorOptions options;
+  options.refine_intrinsics = !info.camera.has_value();  // calibrated here: the final adjustment refines it
+  auto recon = Reconstructor::Create(camera, info.targets, known_map, options);
   if (!recon) {
     spdlog::error("{}: {}", (reader->dir() / "recording.yaml").string(), recon.error().message);
     return 1;

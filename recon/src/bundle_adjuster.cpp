@@ -256,9 +256,18 @@ void ComputeCovariance(ceres::Problem* problem, const std::vector<FrameState*>& 
 }  // namespace
 
 GlobalAdjustmentSummary AdjustGlobally(const std::vector<FrameState*>& frames, std::map<TagId, MapTag>* tags,
-                                       double fx, double fy, const BundleAdjusterOptions& options) {
+                                       double fx, double fy, const BundleAdjusterOptions& options,
+                                       CameraModel* refine_camera) {
   GlobalAdjustmentSummary out;
   ceres::Problem problem(ProblemOptions());
+  double intrinsics[6] = {fx, fy, 0, 0, 0, 0};
+  if (refine_camera) {
+    const auto& d = refine_camera->distortion;
+    intrinsics[2] = refine_camera->cx;
+    intrinsics[3] = refine_camera->cy;
+    intrinsics[4] = d.size() > 0 ? d[0] : 0.0;
+    intrinsics[5] = d.size() > 1 ? d[1] : 0.0;
+  }
   int free_parameters = 0;
   std::map<TagId, bool> added;
   for (FrameState* frame : frames) {
@@ -282,7 +291,22 @@ GlobalAdjustmentSummary AdjustGlobally(const std::vector<FrameState*>& frames, s
         AddPoseBlocks(&problem, &frame->cam_from_world);
         free_parameters += 6;
       }
-      residuals += AddTagResiduals(&problem, frame, obs, &tag, fx, fy, options.huber_px);
+      if (refine_camera) {
+        if (tag.known) {
+          for (int k = 0; k < 4; ++k) {
+            problem.AddResidualBlock(FixedPointPixelReprojectionError::Create(obs.pixels[k], tag.known_corners[k]),
+                                     SharedLoss(options.huber_px), frame->cam_from_world.q, frame->cam_from_world.t,
+                                     intrinsics);
+          }
+        } else {
+          problem.AddResidualBlock(TagPixelReprojectionError::Create(obs.pixels, tag.size_m),
+                                   SharedLoss(2 * options.huber_px), frame->cam_from_world.q, frame->cam_from_world.t,
+                                   tag.world_from_tag.q, tag.world_from_tag.t, intrinsics);
+        }
+        ++residuals;
+      } else {
+        residuals += AddTagResiduals(&problem, frame, obs, &tag, fx, fy, options.huber_px);
+      }
     }
   }
   if (problem.NumResidualBlocks() == 0) {
@@ -306,6 +330,14 @@ GlobalAdjustmentSummary AdjustGlobally(const std::vector<FrameState*>& frames, s
   out.converged = summary.termination_type == ceres::CONVERGENCE;
   out.iterations = static_cast<int>(summary.iterations.size());
   out.final_rms_px = RmsOf(&problem);
+  if (refine_camera && summary.IsSolutionUsable()) {
+    refine_camera->fx = intrinsics[0];
+    refine_camera->fy = intrinsics[1];
+    refine_camera->cx = intrinsics[2];
+    refine_camera->cy = intrinsics[3];
+    refine_camera->distortion = {intrinsics[4], intrinsics[5], 0.0, 0.0, 0.0};
+    free_parameters += 6;
+  }
   if (options.compute_covariance) ComputeCovariance(&problem, frames, tags, free_parameters, &out);
   out.covariance_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count();
   return out;

@@ -407,8 +407,29 @@ ReconstructionResult Reconstructor::Finish() {
   for (auto& frame : frames_) {
     if (frame.registered) registered.push_back(&frame);
   }
+  // A first adjustment spreads the drift of a loop; frames whose pose check
+  // failed against the drifting map get a last chance against the adjusted one.
+  bool retry = false;
+  for (const auto& f : frames_) retry = retry || (!f.registered && !f.tags.empty());
+  if (options_.final_adjustment && !registered.empty() && retry && started_) {
+    BundleAdjusterOptions first = options_.ba;
+    first.compute_covariance = false;
+    AdjustGlobally(registered, &tags_, fx_, fy_, first);
+    for (auto& frame : frames_) {
+      if (frame.registered || frame.tags.empty()) continue;
+      FrameReport ignored;
+      Register(frame, false, &ignored);
+      if (frame.registered) registered.push_back(&frame);
+    }
+  }
   if (options_.final_adjustment && !registered.empty()) {
-    const GlobalAdjustmentSummary summary = AdjustGlobally(registered, &tags_, fx_, fy_, options_.ba);
+    const bool refine = options_.refine_intrinsics && camera_.kind == CameraModel::Kind::kPinhole &&
+                        camera_.distortion.size() <= 5 &&
+                        (camera_.distortion.size() < 3 || (camera_.distortion[2] == 0 && camera_.distortion[3] == 0)) &&
+                        (camera_.distortion.size() < 5 || camera_.distortion[4] == 0);
+    const GlobalAdjustmentSummary summary =
+        AdjustGlobally(registered, &tags_, fx_, fy_, options_.ba, refine ? &camera_ : nullptr);
+    result.intrinsics_refined = refine;
     result.global_adjustment_converged = summary.converged;
     result.covariance = summary.covariance;
     result.covariance_note = summary.covariance_note;

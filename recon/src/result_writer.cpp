@@ -103,6 +103,7 @@ Status WriteReport(const std::filesystem::path& path, const ReconstructionResult
   report["unregistered_frames"] = unregistered;
   report["skipped_frames"] = skipped;
   report["global_adjustment_converged"] = result.global_adjustment_converged;
+  report["intrinsics_refined"] = result.intrinsics_refined;
   report["global_adjustment_s"] = result.global_adjustment_s;
   report["covariance_s"] = result.covariance_s;
   if (result.anchor_tag) report["anchor_tag"] = *result.anchor_tag;

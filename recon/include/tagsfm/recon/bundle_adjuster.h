@@ -76,7 +76,11 @@ struct GlobalAdjustmentSummary {
 };
 
 // Adjusts every registered frame's pose and every learned tag together.
+// With `refine_camera`, the intrinsics (fx, fy, cx, cy, k1, k2: a pinhole
+// camera calibrated from the targets) are adjusted too, in pixel space, and
+// written back.
 GlobalAdjustmentSummary AdjustGlobally(const std::vector<FrameState*>& frames, std::map<TagId, MapTag>* tags,
-                                       double fx, double fy, const BundleAdjusterOptions& options);
+                                       double fx, double fy, const BundleAdjusterOptions& options,
+                                       CameraModel* refine_camera = nullptr);
 
 }  // namespace tagsfm

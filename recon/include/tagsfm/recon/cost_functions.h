@@ -119,6 +119,62 @@ struct TagReprojectionError {
   double half, fx, fy;
 };
 
+// Pixel-space residuals with the intrinsics as parameters, for refining a
+// camera calibrated from the targets: block intrinsics[6] = fx, fy, cx, cy,
+// k1, k2 (OpenCV's radial model, no tangential terms).
+namespace cost_detail {
+template <class T>
+void ProjectPixelResidual(const Eigen::Matrix<T, 3, 1>& p, const T* k, const Eigen::Vector2d& observed, T* residual) {
+  const T x = p.x() / p.z(), y = p.y() / p.z();
+  const T r2 = x * x + y * y;
+  const T radial = T(1) + k[4] * r2 + k[5] * r2 * r2;
+  residual[0] = k[0] * x * radial + k[2] - T(observed.x());
+  residual[1] = k[1] * y * radial + k[3] - T(observed.y());
+}
+}  // namespace cost_detail
+
+struct TagPixelReprojectionError {
+  TagPixelReprojectionError(const std::array<Eigen::Vector2d, 4>& observed_px, double size_m)
+      : observed(observed_px), half(0.5 * size_m) {}
+  template <class T>
+  bool operator()(const T* cam_q, const T* cam_t, const T* tag_q, const T* tag_t, const T* intrinsics,
+                  T* residual) const {
+    const Eigen::Map<const Eigen::Quaternion<T>> cam_r(cam_q), tag_r(tag_q);
+    const Eigen::Map<const Eigen::Matrix<T, 3, 1>> cam_tr(cam_t), tag_tr(tag_t);
+    const Eigen::Matrix<T, 3, 3> r = (cam_r * tag_r).toRotationMatrix();
+    const Eigen::Matrix<T, 3, 1> t = cam_r * tag_tr + cam_tr;
+    static constexpr double kSigns[4][2] = {{-1, -1}, {1, -1}, {1, 1}, {-1, 1}};
+    for (int k = 0; k < 4; ++k) {
+      const Eigen::Matrix<T, 3, 1> p = r.col(0) * T(kSigns[k][0] * half) + r.col(1) * T(kSigns[k][1] * half) + t;
+      cost_detail::ProjectPixelResidual(p, intrinsics, observed[k], residual + 2 * k);
+    }
+    return true;
+  }
+  static ceres::CostFunction* Create(const std::array<Eigen::Vector2d, 4>& observed_px, double size_m) {
+    return new ceres::AutoDiffCostFunction<TagPixelReprojectionError, 8, 4, 3, 4, 3, 6>(
+        new TagPixelReprojectionError(observed_px, size_m));
+  }
+  std::array<Eigen::Vector2d, 4> observed;
+  double half;
+};
+
+struct FixedPointPixelReprojectionError {
+  FixedPointPixelReprojectionError(const Eigen::Vector2d& observed_px, const Eigen::Vector3d& point_in_world)
+      : observed(observed_px), point(point_in_world) {}
+  template <class T>
+  bool operator()(const T* cam_q, const T* cam_t, const T* intrinsics, T* residual) const {
+    cost_detail::ProjectPixelResidual(cost_detail::Transform(cam_q, cam_t, point.cast<T>().eval()), intrinsics,
+                                      observed, residual);
+    return true;
+  }
+  static ceres::CostFunction* Create(const Eigen::Vector2d& observed_px, const Eigen::Vector3d& point_in_world) {
+    return new ceres::AutoDiffCostFunction<FixedPointPixelReprojectionError, 2, 4, 3, 6>(
+        new FixedPointPixelReprojectionError(observed_px, point_in_world));
+  }
+  Eigen::Vector2d observed;
+  Eigen::Vector3d point;
+};
+
 // Soft known-size constraint between two free corner points (the relaxed tag
 // model): (|a - b| - length) / sigma. Blocks corner_a[3], corner_b[3].
 struct TagEdgeLengthError {

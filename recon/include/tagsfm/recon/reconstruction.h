@@ -88,6 +88,7 @@ struct ReconstructionResult {
   std::map<std::string, int> pose_method_counts;  // "epnp", "sqpnp", "ippe", "fallback", ...
   std::optional<TagId> anchor_tag;           // the tag that fixes the world frame (no known map)
   bool global_adjustment_converged = false;
+  bool intrinsics_refined = false;           // `camera` is the adjusted one
   double global_adjustment_s = 0, covariance_s = 0;
 
   PoseMap Poses() const;

@@ -36,6 +36,9 @@ struct ReconstructorOptions {
   double keyframe_min_translation_ratio = 0.05;
   double keyframe_min_rotation_deg = 5.0;
   bool final_adjustment = true;
+  // Adjust the intrinsics too in the final adjustment (a camera calibrated
+  // from the targets: pinhole, k1 k2 only).
+  bool refine_intrinsics = false;
 
   Status Check() const;
 };
