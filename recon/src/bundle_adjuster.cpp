@@ -343,4 +343,60 @@ GlobalAdjustmentSummary AdjustGlobally(const std::vector<FrameState*>& frames, s
   return out;
 }
 
+std::map<TagId, std::array<double, 4>> RelaxedTagEdgeLengths(const std::vector<FrameState*>& frames,
+                                                             const std::map<TagId, MapTag>& tags, double fx,
+                                                             double fy, const BundleAdjusterOptions& options) {
+  // Copies: the diagnostic leaves the reconstruction as it is.
+  std::vector<PoseParams> cameras;
+  cameras.reserve(frames.size());
+  std::map<TagId, std::array<std::array<double, 3>, 4>> corners;
+  for (const auto& [id, tag] : tags) {
+    const TagCorners c = tag.CornersInWorld();
+    for (int k = 0; k < 4; ++k) corners[id][k] = {c[k].x(), c[k].y(), c[k].z()};
+  }
+  ceres::Problem problem(ProblemOptions());
+  ceres::LossFunction* loss = SharedLoss(options.huber_px);
+  for (const FrameState* frame : frames) {
+    if (!frame->registered) continue;
+    cameras.push_back(frame->cam_from_world);
+    PoseParams& cam = cameras.back();
+    bool added = false;
+    for (const auto& obs : frame->tags) {
+      auto it = corners.find(obs.id);
+      if (it == corners.end()) continue;
+      if (!added) {
+        AddPoseBlocks(&problem, &cam);
+        added = true;
+      }
+      for (int k = 0; k < 4; ++k) {
+        problem.AddResidualBlock(ReprojectionError::Create(obs.normalized[k], fx, fy), loss, cam.q, cam.t,
+                                 it->second[k].data());
+      }
+    }
+  }
+  std::map<TagId, std::array<double, 4>> out;
+  for (auto& [id, c] : corners) {
+    const MapTag& tag = tags.at(id);
+    for (int k = 0; k < 4; ++k) {
+      if (problem.HasParameterBlock(c[k].data()) && (tag.known || tag.anchor)) problem.SetParameterBlockConstant(c[k].data());
+    }
+  }
+  if (problem.NumResidualBlocks() == 0) return out;
+  ceres::Solver::Options solver;
+  solver.linear_solver_type = ceres::SPARSE_SCHUR;
+  solver.max_num_iterations = options.global_iterations;
+  solver.num_threads = options.global_threads;
+  solver.logging_type = ceres::SILENT;
+  ceres::Solver::Summary summary;
+  ceres::Solve(solver, &problem, &summary);
+  for (const auto& [id, c] : corners) {
+    const MapTag& tag = tags.at(id);
+    if (tag.known || tag.anchor || !problem.HasParameterBlock(c[0].data())) continue;
+    TagCorners relaxed;
+    for (int k = 0; k < 4; ++k) relaxed[k] = Eigen::Vector3d(c[k][0], c[k][1], c[k][2]);
+    out[id] = TagEdgeLengths(relaxed);
+  }
+  return out;
+}
+
 }  // namespace tagsfm

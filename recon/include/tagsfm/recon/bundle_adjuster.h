@@ -4,6 +4,7 @@
 // Learned tags are rigid squares of known size (pose parameters, size
 // constant); known-map tags are held fixed; the anchor tag, which defines the
 // world when there is no map, is held fixed too.
+#include <array>
 #include <deque>
 #include <map>
 #include <memory>
@@ -82,5 +83,13 @@ struct GlobalAdjustmentSummary {
 GlobalAdjustmentSummary AdjustGlobally(const std::vector<FrameState*>& frames, std::map<TagId, MapTag>* tags,
                                        double fx, double fy, const BundleAdjusterOptions& options,
                                        CameraModel* refine_camera = nullptr);
+
+// A diagnostic of the known-size model: the same adjustment with every
+// learned tag's four corners as free 3D points (the anchor's held fixed, which
+// keeps the scale), starting from the squares. Returns each learned tag's
+// four edge lengths once relaxed; the poses and tags given are not changed.
+std::map<TagId, std::array<double, 4>> RelaxedTagEdgeLengths(const std::vector<FrameState*>& frames,
+                                                             const std::map<TagId, MapTag>& tags, double fx,
+                                                             double fy, const BundleAdjusterOptions& options);
 
 }  // namespace tagsfm
