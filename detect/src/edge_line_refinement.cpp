@@ -290,6 +290,9 @@ bool RefineCornersByEdgeLines(const cv::Mat& gray8, const TagLayout& layout, Qua
   if (gray8.empty() || gray8.type() != CV_8UC1 || n <= 0) return false;
   if (!layout.like_border.empty() && layout.like_border.size() != static_cast<size_t>(n * n)) return false;
   const QuadCorners initial = *corners;
+  for (const Eigen::Vector2d& c : initial) {
+    if (!c.allFinite()) return false;
+  }
   double mean_side = 0.0;
   for (int i = 0; i < 4; ++i) mean_side += 0.25 * (initial[(i + 1) % 4] - initial[i]).norm();
   const double module_px = mean_side / n;
