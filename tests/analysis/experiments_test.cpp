@@ -3,6 +3,7 @@
 // (noted beside it); the full runs are in docs/analysis.md.
 #include <algorithm>
 #include <cmath>
+#include <iterator>
 #include <numbers>
 
 #include <gtest/gtest.h>
@@ -26,6 +27,13 @@ ExperimentResult RunReduced(const std::string& name, int trials, std::uint32_t s
   Result<ExperimentResult> result = RunExperiment(name, options);
   EXPECT_TRUE(result.has_value()) << name;
   return result.has_value() ? *result : ExperimentResult();
+}
+
+// targets-image-noise is used by two tests: run it once (it is the costliest
+// of the reduced runs under the sanitizers).
+const ExperimentResult& TargetsImageNoise() {
+  static const ExperimentResult result = RunReduced("targets-image-noise", 40);
+  return result;
 }
 
 const Summary& Stats(const ExperimentResult& result, const std::string& object, const std::string& series, double x,
@@ -73,7 +81,7 @@ TEST(AnalysisDepthPointNoise, PositionErrorGrowsWithDepthAndRotationIsWorstTooCl
 
 // 4.2.1: more correspondences, smaller pose error, falling like 1/sqrt(n).
 TEST(AnalysisTargetsImageNoise, ErrorFallsWithCorrespondencesLikeOneOverSqrtN) {
-  const ExperimentResult result = RunReduced("targets-image-noise", 40);
+  const ExperimentResult& result = TargetsImageNoise();
   for (const char* object : {"bradley-like", "maxxpro-like"}) {
     EXPECT_LT(Stats(result, object, "0", 20, kRotationEq2).mean, 1e-8) << object;
     const double at20 = Stats(result, object, "2", 20, kRotationDeg).median;
@@ -92,14 +100,22 @@ TEST(AnalysisTargetsImageNoise, ErrorFallsWithCorrespondencesLikeOneOverSqrtN) {
 // noise, and 0.5 units (~50 px) is far worse than the worst image noise (10 px).
 TEST(AnalysisTargetsPointNoise, ThreeDNoiseActsLikeImageNoiseOfFocalTimesSigmaOverDepth) {
   const ExperimentResult point_noise = RunReduced("targets-point-noise", 40);
-  const ExperimentResult image_noise = RunReduced("targets-image-noise", 40);
+  const ExperimentResult& image_noise = TargetsImageNoise();
   for (const char* object : {"bradley-like", "maxxpro-like"}) {
     EXPECT_LT(Stats(point_noise, object, "0", 50, kPosition).mean, 1e-6) << object;
-    const double from_3d = Stats(point_noise, object, "0.01", 100, kRotationDeg).median;
-    const double from_2d = Stats(image_noise, object, "1", 100, kRotationDeg).median;
-    // Targets are 6-13 units away (f / depth ~ 80-160 px per unit): within a factor 1.6.
-    EXPECT_GT(from_3d / from_2d, 1 / 1.6) << object;
-    EXPECT_LT(from_3d / from_2d, 1.6) << object;
+    // Geometric mean over the counts of (rotation with 0.01 units of 3D noise) /
+    // (rotation with 1 px of image noise). Targets are 6-13 units away, so
+    // 0.01 units are 0.8-1.6 px, ~0.9 px on average (0.86-0.95 in the full
+    // run); single counts of 40 cameras scatter by ~15%: accept 0.65-1.3.
+    double log_ratio_sum = 0;
+    const double counts[] = {20, 50, 100, 200, 500, 1000};
+    for (double n : counts) {
+      log_ratio_sum += std::log(Stats(point_noise, object, "0.01", n, kRotationDeg).median /
+                                Stats(image_noise, object, "1", n, kRotationDeg).median);
+    }
+    const double ratio = std::exp(log_ratio_sum / std::size(counts));
+    EXPECT_GT(ratio, 0.65) << object;
+    EXPECT_LT(ratio, 1.3) << object;
     EXPECT_GT(Stats(point_noise, object, "0.5", 100, kRotationDeg).median,
               3 * Stats(image_noise, object, "10", 100, kRotationDeg).median) << object;
   }
@@ -125,16 +141,16 @@ TEST(AnalysisTargetDistribution, ClusteredTargetsAreWorseByTheSpreadRatio) {
 
 TEST(AnalysisExperiments, SameSeedSameNumbersOnAnyThreadCount) {
   ExperimentOptions options;
-  options.trials = 6;
+  options.trials = 5;
   options.seed = 3;
   options.threads = 1;
-  const Result<ExperimentResult> one = RunExperiment("targets-image-noise", options);
-  options.threads = 3;
-  const Result<ExperimentResult> three = RunExperiment("targets-image-noise", options);
+  const Result<ExperimentResult> one = RunExperiment("depth-point-noise", options);
+  options.threads = 3;  // blocks of 1-2 trials per thread instead of one block of 5
+  const Result<ExperimentResult> three = RunExperiment("depth-point-noise", options);
   ASSERT_TRUE(one.has_value() && three.has_value());
   EXPECT_EQ(ToCsv(*one), ToCsv(*three));
   options.seed = 4;
-  EXPECT_NE(ToCsv(*RunExperiment("targets-image-noise", options)), ToCsv(*one));
+  EXPECT_NE(ToCsv(*RunExperiment("depth-point-noise", options)), ToCsv(*one));
 }
 
 TEST(AnalysisExperiments, CsvIsTidyWithOneRowPerConditionAndMetric) {
