@@ -84,7 +84,7 @@ int RunAnalyze(const AnalyzeArgs& args) {
 std::string ExperimentHelp() {
   std::string help = "experiment to run, or `all`:";
   for (const analysis::ExperimentInfo& info : analysis::ExperimentCatalogue()) {
-    help += "\n  " + info.name + "  paper " + info.paper_section + ": " + info.summary + " [default trials " +
+    help += "\n  " + info.name + " (" + info.paper_section + "): " + info.summary + " [default trials " +
             std::to_string(info.default_trials) + " " + info.trial_unit + "]";
   }
   return help;

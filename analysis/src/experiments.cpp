@@ -14,20 +14,20 @@ Status ExperimentOptions::Check() const {
 // (docs/analysis.md has the measured times).
 const std::vector<ExperimentInfo>& ExperimentCatalogue() {
   static const std::vector<ExperimentInfo> catalogue = {
-      {"depth-image-noise", "4.1.1 (fig. 2)", "camera depth vs 3D error of a point on a noisy ray, image noise 0-5 px",
+      {"depth-image-noise", "paper 4.1.1, fig. 2", "camera depth vs 3D error of a point on a noisy ray, image noise 0-5 px",
        1000, "point sets of 100 box points"},
-      {"depth-point-noise", "4.1.2 (fig. 3)", "camera depth vs EPnP pose from 3D points with noise 0-1 (box edge 1)",
+      {"depth-point-noise", "paper 4.1.2, fig. 3", "camera depth vs EPnP pose from 3D points with noise 0-1 (box edge 1)",
        1000, "point sets of 100 box points"},
-      {"targets-image-noise", "4.2.1 (fig. 5)", "5-1000 correspondences vs EPnP pose, image noise 0-10 px", 1234,
+      {"targets-image-noise", "paper 4.2.1, fig. 5", "5-1000 correspondences vs EPnP pose, image noise 0-10 px", 1234,
        "cameras per object (at most its set: 1234 / 278)"},
-      {"targets-point-noise", "4.2.2 (fig. 6)", "5-1000 correspondences vs EPnP pose, 3D noise 0-5 units", 1234,
+      {"targets-point-noise", "paper 4.2.2, fig. 6", "5-1000 correspondences vs EPnP pose, 3D noise 0-5 units", 1234,
        "cameras per object (at most its set: 1234 / 278)"},
-      {"target-distribution", "4.2.3 (fig. 7)", "50 targets clustered vs spread, image noise 0-10 px", 1234,
+      {"target-distribution", "paper 4.2.3, fig. 7", "50 targets clustered vs spread, image noise 0-10 px", 1234,
        "cameras per object (at most its set: 1234 / 278)"},
-      {"pipeline", "(beyond the paper)",
+      {"pipeline", "beyond the paper",
        "2-50 tags: EPnP vs EPnP+LM vs tagsfm's pose estimator vs the error model, corner noise 0.25-3 px", 1234,
        "cameras of the bradley-like set"},
-      {"pipeline-map", "(beyond the paper)",
+      {"pipeline-map", "beyond the paper",
        "whole target pipeline (Reconstructor, sliding-window + final BA, no known map) vs distance 1.25-3.5 m and "
        "corner noise 0.1-1 px",
        12, "walk-arounds (tag layouts and camera paths) per condition"},

@@ -27,7 +27,7 @@ struct ExperimentOptions {
 
 struct ExperimentInfo {
   std::string name;
-  std::string paper_section;  // "4.1.1 (fig. 2)"
+  std::string paper_section;  // "paper 4.1.1, fig. 2" or "beyond the paper"
   std::string summary;
   int default_trials = 0;
   std::string trial_unit;     // what one trial is, e.g. "cameras per object"
