@@ -1,5 +1,6 @@
 // tagsfm: capture-side 3D reconstruction with coded targets.
 // Each subcommand is in its own *_command.cpp; see command_registry.h.
+#include <spdlog/sinks/stdout_color_sinks.h>
 #include <spdlog/spdlog.h>
 
 #include <CLI/CLI.hpp>
@@ -12,6 +13,9 @@ int main(int argc, char** argv) {
   app.set_version_flag("--version", "tagsfm 0.1.0");
   int exit_code = 0;
   for (const auto& [name, add] : tagsfm::RegisteredCommands()) add(app, exit_code);
+  // Messages, warnings and errors go to stderr; stdout carries results
+  // (JSON of detect, evaluate, measure) that scripts read.
+  spdlog::set_default_logger(spdlog::stderr_color_mt("tagsfm"));
   spdlog::set_pattern("%^%l%$: %v");
   try {
     app.parse(argc, argv);

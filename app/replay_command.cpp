@@ -189,9 +189,9 @@ int RunReplay(const ReplayArgs& args) {
     spdlog::error("{}", s.error().message);
     return 1;
   }
-  if (StderrIsTerminal()) {
-    PrintSummary(result, stats, args.out);
-  }
+  // Progress is for terminals only; the summary is for everyone (the
+  // README's main job prints it, also into a log).
+  PrintSummary(result, stats, args.out);
   return 0;
 }
 
