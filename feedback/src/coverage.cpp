@@ -1,12 +1,9 @@
 #include "tagsfm/feedback/coverage.h"
 
 #include <cmath>
-#include <limits>
-#include <optional>
+#include <vector>
 
-#include <opencv2/calib3d.hpp>
-#include <opencv2/core/eigen.hpp>
-
+#include "tagsfm/recon/pose_estimator.h"
 
 namespace tagsfm {
 namespace {
@@ -18,51 +15,6 @@ constexpr size_t kMaxKeptDirections = 16;
 
 double AngleDeg(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
   return std::atan2(a.cross(b).norm(), a.dot(b)) * kRadToDeg;
-}
-
-// IPPE's two solutions (the planar ambiguity) are first-order
-// approximations: unrefined, the wrong one of a nearly head-on tag can
-// reproject better than the right one (measured on exact data with OpenCV
-// 4.6). Both are refined with LM, in pixel units so that its convergence
-// thresholds mean what they say, and the better one is kept. The tag frame is
-// first turned 180 degrees about x: a tag facing the camera is then near the
-// identity rotation, far from the rotation vector's singularity at 180
-// degrees, where LM was seen to wander off an exact start.
-std::optional<Rigid3d> BestTagPose(const std::array<Eigen::Vector2d, 4>& normalized, double size_m, double focal_px) {
-  const double h = 0.5 * size_m;
-  // Corners in the turned frame: (x, y, 0) -> (x, -y, 0).
-  const std::vector<cv::Point3d> corners_in_tag{{-h, h, 0}, {h, h, 0}, {h, -h, 0}, {-h, -h, 0}};
-  const Eigen::Quaterniond turned_from_tag(Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitX()));
-  std::vector<cv::Point2d> observed;
-  for (const auto& n : normalized) observed.emplace_back(focal_px * n.x(), focal_px * n.y());
-  const cv::Matx33d K(focal_px, 0, 0, 0, focal_px, 0, 0, 0, 1);
-  std::vector<cv::Mat> rvecs, tvecs;
-  try {
-    cv::solvePnPGeneric(corners_in_tag, observed, K, cv::noArray(), rvecs, tvecs, false, cv::SOLVEPNP_IPPE);
-  } catch (const cv::Exception&) {
-    return std::nullopt;  // degenerate corners (e.g. collapsed to a line)
-  }
-  std::optional<Rigid3d> best;
-  double best_error = 0;
-  for (size_t i = 0; i < rvecs.size(); ++i) {
-    cv::solvePnPRefineLM(corners_in_tag, observed, K, cv::noArray(), rvecs[i], tvecs[i]);
-    std::vector<cv::Point2d> projected;
-    cv::projectPoints(corners_in_tag, rvecs[i], tvecs[i], K, cv::noArray(), projected);
-    double error = 0;
-    for (int k = 0; k < 4; ++k) error += cv::norm(projected[k] - observed[k]);
-    cv::Mat rotation;
-    cv::Rodrigues(rvecs[i], rotation);
-    Eigen::Matrix3d r;
-    Eigen::Vector3d t;
-    cv::cv2eigen(rotation, r);
-    cv::cv2eigen(tvecs[i], t);
-    if (!(t.z() > 0) || !t.allFinite()) continue;
-    if (!best || error < best_error) {
-      best = Rigid3d(Eigen::Quaterniond(r) * turned_from_tag, t);
-      best_error = error;
-    }
-  }
-  return best;
 }
 
 }  // namespace
@@ -84,9 +36,10 @@ std::vector<TagView> ComputeTagViews(const CameraModel& camera, const TargetConf
     const TagDetection& tag = detections.tags[i];
     const std::array<Eigen::Vector2d, 4> corners{normalized[4 * i], normalized[4 * i + 1], normalized[4 * i + 2],
                                                  normalized[4 * i + 3]};
-    const auto cam_from_tag = BestTagPose(corners, targets.SizeOf(tag.id), 0.5 * (camera.fx + camera.fy));
-    if (!cam_from_tag) continue;
-    const Rigid3d tag_from_cam = cam_from_tag->Inverse();
+    // recon's IPPE pair, both branches refined and ranked, best first.
+    const std::vector<Rigid3d> candidates = TagPoseCandidates(corners, targets.SizeOf(tag.id));
+    if (candidates.empty()) continue;
+    const Rigid3d tag_from_cam = candidates.front().Inverse();
     const Eigen::Vector3d camera_in_tag = tag_from_cam.translation;
     TagView view;
     view.id = tag.id;
