@@ -93,14 +93,17 @@ TEST(CornerAccuracySlow, ComparesMethodsOnSmallTags) {
   }
   // The chosen default (edge line fit) against the issue's targets: median
   // <= 0.05 px, p95 <= 0.2 px, on every tag found at full resolution.
+  // Measured (docs/detection.md): median 0.0115, p95 0.027, max 0.068, bias
+  // -0.0002 px; the bounds below leave room for code changes that move the
+  // figures by their sampling error (the bias's is ~0.0007 px over 480
+  // corners with ~0.015 px scatter), not for a return of the +0.01 px bias.
   const CornerStats& fit = results["edgelinefit1"];
   EXPECT_EQ(fit.found_tags, fit.truth_tags);
   EXPECT_EQ(fit.wrong_ids, 0);
-  EXPECT_LE(fit.Median(), 0.05);
-  EXPECT_LE(fit.Percentile(0.95), 0.2);
-  // Bias: the issue asks <= 0.003 px; measured +0.009 px (docs/detection.md),
-  // so this pins "no worse than now" and far below plain libapriltag's.
-  EXPECT_LE(std::abs(fit.bias), 0.015);
+  EXPECT_LE(fit.Median(), 0.02);
+  EXPECT_LE(fit.Percentile(0.95), 0.05);
+  EXPECT_LE(fit.Max(), 0.15);
+  EXPECT_LE(std::abs(fit.bias), 0.002);
   // And it must beat libapriltag's own refinement, the thing it replaces.
   const CornerStats& plain = results["apriltag1"];
   EXPECT_LT(fit.Median(), 0.5 * plain.Median());
@@ -111,7 +114,31 @@ TEST(CornerAccuracySlow, ComparesMethodsOnSmallTags) {
   const CornerStats& fit2 = results["edgelinefit2"];
   EXPECT_GE(fit2.found_tags, fit2.truth_tags * 8 / 10);
   EXPECT_EQ(fit2.wrong_ids, 0);
-  EXPECT_LE(fit2.Median(), 0.05);
+  EXPECT_LE(fit2.Median(), 0.02);
+  EXPECT_LE(std::abs(fit2.bias), 0.002);
+}
+
+// Strongly tilted small tags (3 px modules, tilts up to 70 degrees: down to
+// ~1 px per module across the foreshortened direction), noise-free so that
+// only model error is left. The first edge model's bias grew with tilt to
+// +0.046 px here (the border's depth taken along the slanted "inward"
+// direction, docs/detection.md); measured now (2 frames, the 72 of 80 tags
+// libapriltag finds at such tilts) bias ~0.000 px, median ~0.005, p95
+// ~0.03 px. Bias bound: 0.003 px, the issue's target (~4x the bias's
+// sampling error over ~280 corners).
+TEST(CornerAccuracy, EdgeFitIsUnbiasedOnStronglyTiltedTags) {
+  SceneSpec spec;
+  spec.tilt_deg = 70.0;
+  spec.noise = 0.0;
+  spec.frames = 2;
+  const CornerStats stats = Measure(spec, WithRefinement(CornerRefinement::kEdgeLineFit, 1.0f));
+  std::printf("edgelinefit tilt <= 70, noise 0: %s\n", stats.Summary().c_str());
+  // Recall at 70 degrees is libapriltag's quad detection, not this test's subject.
+  ASSERT_GE(stats.found_tags, stats.truth_tags * 3 / 4);
+  EXPECT_EQ(stats.wrong_ids, 0);
+  EXPECT_LE(std::abs(stats.bias), 0.003);
+  EXPECT_LE(stats.Median(), 0.02);
+  EXPECT_LE(stats.Percentile(0.95), 0.1);
 }
 
 // Large, noise-free, frontal tags: the edge fit must be near-exact there
@@ -127,8 +154,9 @@ TEST(CornerAccuracy, EdgeFitIsExactOnCleanLargeTags) {
   const CornerStats stats = Measure(spec, WithRefinement(CornerRefinement::kEdgeLineFit, 1.0f));
   std::printf("edgelinefit clean 64 px: %s\n", stats.Summary().c_str());
   ASSERT_EQ(stats.found_tags, stats.truth_tags);
-  EXPECT_LE(stats.Percentile(0.95), 0.03);  // measured 0.020 (median 0.001)
-  EXPECT_LE(std::abs(stats.bias), 0.005);
+  // Measured: median 0.0023, p95 0.0065, bias 0.0000 px.
+  EXPECT_LE(stats.Percentile(0.95), 0.015);
+  EXPECT_LE(std::abs(stats.bias), 0.001);
 }
 
 // Pins the pixel convention: libapriltag's raw corners, shifted by half a

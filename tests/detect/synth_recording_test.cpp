@@ -78,7 +78,14 @@ TEST(SynthRecordingsSlow, CornersMatchProjectedTruth) {
     // The conventions agree: no half-pixel (or any) mean offset.
     EXPECT_LT(std::abs(fit.mean_x), 0.05) << name;
     EXPECT_LT(std::abs(fit.mean_y), 0.05) << name;
-    EXPECT_LT(fit.Median(), 0.1) << name;
+    // Measured (docs/detection.md): median 0.030-0.040 px, bias over the
+    // corners within 0.5 px of the truth -0.0006 to -0.0019 px (these
+    // recordings blur the area-averaged pixels, which the edge model, made
+    // for blur before the pixel, follows to ~0.002 px). The plain mean
+    // also counts the few tags where the refinement declined or that are
+    // partly occluded (errors 1.8-2.5 px, the same for every method).
+    EXPECT_LT(fit.Median(), 0.06) << name;
+    EXPECT_LT(std::abs(fit.InlierBias()), 0.003) << name;
   }
 }
 

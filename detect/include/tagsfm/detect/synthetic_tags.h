@@ -1,8 +1,8 @@
 #pragma once
 // Images of tags whose corners are known exactly, for accuracy tests and
 // benchmarks: each tag's bitmap (libapriltag's own, one white module around
-// the black border) is mapped by a homography, area-averaged over each pixel
-// by supersampling, blurred and noised. Pixel centres at integer coordinates
+// the black border) is mapped by a homography, blurred, area-averaged over
+// each pixel and noised. Pixel centres at integer coordinates
 // (pixel (x, y) covers [x-0.5, x+0.5] x [y-0.5, y+0.5]), as everywhere in tagsfm.
 #include <cstdint>
 #include <string>
@@ -24,7 +24,12 @@ struct PlacedTag {
 
 struct TagRenderOptions {
   int supersample = 8;         // coarse grid per pixel axis; pixels an edge crosses get 987 samples
-  double blur_sigma_px = 0.0;  // Gaussian optical blur
+  double blur_sigma_px = 0.0;  // Gaussian optical blur, applied before the pixels integrate
+  // With blur: the scene is drawn this many times finer, blurred there and
+  // block-averaged, so that the blur acts before the pixel's area as in a
+  // camera. 1: blur the area-averaged pixels (cheaper, not physical below
+  // ~1 px of blur; what `tagsfm synth` does).
+  int blur_oversample = 4;
   double noise_sigma = 0.0;    // Gaussian noise, grey levels
   double black = 30.0;         // grey levels of the tag's black and white
   double white = 220.0;
