@@ -1,4 +1,4 @@
-#include "apriltag_family.h"
+#include "tagsfm/detect/apriltag_family.h"
 
 #include <apriltag/tag16h5.h>
 #include <apriltag/tag25h9.h>
@@ -12,7 +12,7 @@
 
 #include <array>
 
-namespace tagsfm::detail {
+namespace tagsfm {
 namespace {
 
 struct FamilyEntry {
@@ -35,10 +35,10 @@ constexpr std::array<FamilyEntry, 9> kFamilies{{
 
 }  // namespace
 
-Result<FamilyPtr> CreateAprilTagFamily(const std::string& name) {
+Result<AprilTagFamilyPtr> CreateAprilTagFamily(const std::string& name) {
   for (const FamilyEntry& entry : kFamilies) {
     if (name == entry.name) {
-      FamilyPtr family(entry.create(), FamilyDeleter{entry.destroy});
+      AprilTagFamilyPtr family(entry.create(), AprilTagFamilyDeleter{entry.destroy});
       if (!family) return MakeError("family: libapriltag could not create '" + name + "'");
       return family;
     }
@@ -48,4 +48,4 @@ Result<FamilyPtr> CreateAprilTagFamily(const std::string& name) {
   return MakeError("family: unknown tag family '" + name + "' (known: " + known + ")");
 }
 
-}  // namespace tagsfm::detail
+}  // namespace tagsfm
