@@ -2,22 +2,9 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include "tagsfm/capture/yaml_file.h"
+
 namespace tagsfm {
-namespace {
-
-template <class T>
-Status ReadOptional(const YAML::Node& node, const std::string& key, const std::string& where, T* out) {
-  const YAML::Node value = node[key];
-  if (!value) return Status::Ok();
-  try {
-    *out = value.as<T>();
-  } catch (const YAML::Exception&) {
-    return MakeError(where + key + " has the wrong type: '" + YAML::Dump(value) + "'");
-  }
-  return Status::Ok();
-}
-
-}  // namespace
 
 Status CaptureSettings::Check() const {
   if (source.find(':') == std::string::npos) return MakeError("capture.source must be a URI such as v4l2:/dev/video0 (got '" + source + "')");
@@ -42,29 +29,23 @@ std::vector<std::string> CaptureSettings::Warnings() const {
 
 Result<CaptureSettings> ReadCaptureSettings(const std::filesystem::path& yaml_path) {
   const std::string file = yaml_path.string();
-  YAML::Node root;
-  try {
-    root = YAML::LoadFile(file);
-  } catch (const YAML::BadFile&) {
-    return MakeError(file + ": cannot open");
-  } catch (const YAML::Exception& e) {
-    return MakeError(file + ": not valid YAML (line " + std::to_string(e.mark.line + 1) + ")");
-  }
+  Result<YAML::Node> root = LoadYamlFile(file, /*allow_empty=*/true);
+  if (!root) return root.error();
   CaptureSettings settings;
-  const YAML::Node node = root["capture"];
+  const YAML::Node node = (*root)["capture"];
   if (!node) return settings;
   if (!node.IsMap()) return MakeError(file + ": capture must be a mapping");
   const std::string where = file + ": capture.";
-  Status s = ReadOptional(node, "source", where, &settings.source);
-  if (s) s = ReadOptional(node, "width", where, &settings.width);
-  if (s) s = ReadOptional(node, "height", where, &settings.height);
-  if (s) s = ReadOptional(node, "fps", where, &settings.fps);
-  if (s) s = ReadOptional(node, "colour", where, &settings.colour);
-  if (s) s = ReadOptional(node, "exposure_us", where, &settings.exposure_us);
-  if (s) s = ReadOptional(node, "gain", where, &settings.gain);
-  if (s) s = ReadOptional(node, "autofocus", where, &settings.autofocus);
-  if (s) s = ReadOptional(node, "focus_absolute", where, &settings.focus_absolute);
-  if (s) s = ReadOptional(node, "buffers", where, &settings.buffers);
+  Status s = ReadYamlField(node, "source", where, &settings.source);
+  if (s) s = ReadYamlField(node, "width", where, &settings.width);
+  if (s) s = ReadYamlField(node, "height", where, &settings.height);
+  if (s) s = ReadYamlField(node, "fps", where, &settings.fps);
+  if (s) s = ReadYamlField(node, "colour", where, &settings.colour);
+  if (s) s = ReadYamlField(node, "exposure_us", where, &settings.exposure_us);
+  if (s) s = ReadYamlField(node, "gain", where, &settings.gain);
+  if (s) s = ReadYamlField(node, "autofocus", where, &settings.autofocus);
+  if (s) s = ReadYamlField(node, "focus_absolute", where, &settings.focus_absolute);
+  if (s) s = ReadYamlField(node, "buffers", where, &settings.buffers);
   if (!s) return s.error();
   if (Status check = settings.Check(); !check) return MakeError(file + ": " + check.error().message);
   return settings;

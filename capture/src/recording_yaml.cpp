@@ -5,27 +5,9 @@
 #include <yaml-cpp/yaml.h>
 
 #include "tagsfm/capture/recording.h"
+#include "tagsfm/capture/yaml_file.h"
 
 namespace tagsfm {
-namespace {
-
-// Reads node[key] as T; the error names "file: field".
-template <class T>
-Status ReadField(const YAML::Node& node, const std::string& key, const std::string& where, T* out, bool required) {
-  const YAML::Node value = node[key];
-  if (!value) {
-    if (required) return MakeError(where + key + " is missing");
-    return Status::Ok();
-  }
-  try {
-    *out = value.as<T>();
-  } catch (const YAML::Exception&) {
-    return MakeError(where + key + " has the wrong type: '" + YAML::Dump(value) + "'");
-  }
-  return Status::Ok();
-}
-
-}  // namespace
 
 const std::vector<std::string>& KnownTagFamilies() {
   static const std::vector<std::string> families{"tag16h5",          "tag25h9",        "tag36h10",
@@ -55,18 +37,6 @@ Status TargetConfig::Check() const {
 
 namespace {
 
-Result<YAML::Node> LoadYaml(const std::string& file) {
-  try {
-    YAML::Node root = YAML::LoadFile(file);
-    if (!root.IsMap()) return MakeError(file + ": expected a mapping at the top level");
-    return root;
-  } catch (const YAML::BadFile&) {
-    return MakeError(file + ": cannot open");
-  } catch (const YAML::Exception& e) {
-    return MakeError(file + ": not valid YAML (line " + std::to_string(e.mark.line + 1) + ")");
-  }
-}
-
 // The `camera:` and `targets:` blocks, shared by recording.yaml and the
 // daemon's config file.
 Result<RecordingInfo> ParseCameraAndTargets(const YAML::Node& root, const std::string& file) {
@@ -75,14 +45,14 @@ Result<RecordingInfo> ParseCameraAndTargets(const YAML::Node& root, const std::s
     const std::string where = file + ": camera.";
     CameraModel c;
     std::string model = "pinhole";
-    Status s = ReadField(cam, "width", where, &c.width, true);
-    if (s) s = ReadField(cam, "height", where, &c.height, true);
-    if (s) s = ReadField(cam, "fx", where, &c.fx, true);
-    if (s) s = ReadField(cam, "fy", where, &c.fy, true);
-    if (s) s = ReadField(cam, "cx", where, &c.cx, true);
-    if (s) s = ReadField(cam, "cy", where, &c.cy, true);
-    if (s) s = ReadField(cam, "distortion", where, &c.distortion, false);
-    if (s) s = ReadField(cam, "model", where, &model, false);
+    Status s = ReadYamlField(cam, "width", where, &c.width, true);
+    if (s) s = ReadYamlField(cam, "height", where, &c.height, true);
+    if (s) s = ReadYamlField(cam, "fx", where, &c.fx, true);
+    if (s) s = ReadYamlField(cam, "fy", where, &c.fy, true);
+    if (s) s = ReadYamlField(cam, "cx", where, &c.cx, true);
+    if (s) s = ReadYamlField(cam, "cy", where, &c.cy, true);
+    if (s) s = ReadYamlField(cam, "distortion", where, &c.distortion, false);
+    if (s) s = ReadYamlField(cam, "model", where, &model, false);
     if (!s) return s.error();
     if (model == "fisheye") {
       c.kind = CameraModel::Kind::kFisheye;
@@ -96,10 +66,10 @@ Result<RecordingInfo> ParseCameraAndTargets(const YAML::Node& root, const std::s
   const YAML::Node targets = root["targets"];
   if (!targets || !targets.IsMap()) return MakeError(file + ": targets is missing");
   const std::string where = file + ": targets.";
-  Status s = ReadField(targets, "family", where, &info.targets.family, true);
-  if (s) s = ReadField(targets, "size_m", where, &info.targets.size_m, true);
-  if (s) s = ReadField(targets, "size_by_id", where, &info.targets.size_by_id, false);
-  if (s) s = ReadField(targets, "map", where, &info.targets.map, false);
+  Status s = ReadYamlField(targets, "family", where, &info.targets.family, true);
+  if (s) s = ReadYamlField(targets, "size_m", where, &info.targets.size_m, true);
+  if (s) s = ReadYamlField(targets, "size_by_id", where, &info.targets.size_by_id, false);
+  if (s) s = ReadYamlField(targets, "map", where, &info.targets.map, false);
   if (!s) return s.error();
   if (Status check = info.targets.Check(); !check) return MakeError(file + ": " + check.error().message);
   return info;
@@ -109,17 +79,17 @@ Result<RecordingInfo> ParseCameraAndTargets(const YAML::Node& root, const std::s
 
 Result<RecordingInfo> ReadRecordingYaml(const std::filesystem::path& yaml_path) {
   const std::string file = yaml_path.string();
-  auto root = LoadYaml(file);
+  auto root = LoadYamlFile(file);
   if (!root) return root.error();
   std::string format;
-  if (Status s = ReadField(*root, "format", file + ": ", &format, true); !s) return s.error();
+  if (Status s = ReadYamlField(*root, "format", file + ": ", &format, true); !s) return s.error();
   if (format != "tagsfm-recording/1") return MakeError(file + ": format must be 'tagsfm-recording/1' (got '" + format + "')");
   return ParseCameraAndTargets(*root, file);
 }
 
 Result<RecordingInfo> ReadCameraAndTargets(const std::filesystem::path& yaml_path) {
   const std::string file = yaml_path.string();
-  auto root = LoadYaml(file);
+  auto root = LoadYamlFile(file);
   if (!root) return root.error();
   return ParseCameraAndTargets(*root, file);
 }

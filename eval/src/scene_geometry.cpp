@@ -5,6 +5,8 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include "tagsfm/capture/yaml_file.h"
+
 namespace tagsfm::eval {
 
 double SurfaceRectangle::DistanceTo(const Eigen::Vector3d& point) const {
@@ -22,15 +24,9 @@ double DistanceToSurfaces(const std::vector<SurfaceRectangle>& surfaces, const E
 
 Result<std::vector<SurfaceRectangle>> ReadSceneYaml(const std::filesystem::path& path) {
   const std::string file = path.string();
-  YAML::Node root;
-  try {
-    root = YAML::LoadFile(file);
-  } catch (const YAML::BadFile&) {
-    return MakeError(file + ": cannot open");
-  } catch (const YAML::Exception& e) {
-    return MakeError(file + ": not valid YAML (line " + std::to_string(e.mark.line + 1) + ")");
-  }
-  const YAML::Node faces = root.IsMap() ? root["faces"] : YAML::Node();
+  Result<YAML::Node> root = LoadYamlFile(file);
+  if (!root) return root.error();
+  const YAML::Node faces = (*root)["faces"];
   if (!faces || !faces.IsSequence()) return MakeError(file + ": faces is missing or not a list");
   std::vector<SurfaceRectangle> surfaces;
   for (size_t i = 0; i < faces.size(); ++i) {

@@ -1,0 +1,37 @@
+#pragma once
+// Reading YAML files (recording.yaml, capture settings, scene.yaml) with
+// errors that name the file and the field, the same way everywhere.
+#include <string>
+
+#include <yaml-cpp/yaml.h>
+
+#include "tagsfm/core/result.h"
+
+namespace tagsfm {
+
+// The file's top-level node. Errors: "FILE: cannot open", "FILE: not valid
+// YAML (line N)", and, unless `allow_empty`, "FILE: expected a mapping at
+// the top level" for anything but a mapping (an empty file included).
+Result<YAML::Node> LoadYamlFile(const std::string& file, bool allow_empty = false);
+
+// Reads node[key] as T into *out. A missing key is an error only when
+// `required` ("WHEREkey is missing"); a value of the wrong type always is
+// ("WHEREkey has the wrong type: 'VALUE'"). `where` is the prefix that names
+// the file and the block, e.g. "rec/recording.yaml: camera.".
+template <class T>
+Status ReadYamlField(const YAML::Node& node, const std::string& key, const std::string& where, T* out,
+                     bool required = false) {
+  const YAML::Node value = node[key];
+  if (!value) {
+    if (required) return MakeError(where + key + " is missing");
+    return Status::Ok();
+  }
+  try {
+    *out = value.as<T>();
+  } catch (const YAML::Exception&) {
+    return MakeError(where + key + " has the wrong type: '" + YAML::Dump(value) + "'");
+  }
+  return Status::Ok();
+}
+
+}  // namespace tagsfm
