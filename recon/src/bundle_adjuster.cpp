@@ -96,14 +96,15 @@ void SlidingWindowBundleAdjuster::AddKeyframe(FrameState* frame, std::map<TagId,
   window_.push_back(frame);
   for (const auto& obs : frame->tags) {
     auto it = tags->find(obs.id);
-    if (it != tags->end()) AddObservation(frame, obs, &it->second);
+    if (it != tags->end() && !obs.outlier) AddObservation(frame, obs, &it->second);
   }
   HoldOldestFixed();
 }
 
 void SlidingWindowBundleAdjuster::AddTag(MapTag* tag) {
   for (FrameState* frame : window_) {
-    if (const TagObservation* obs = frame->Find(tag->id)) AddObservation(frame, *obs, tag);
+    const TagObservation* obs = frame->Find(tag->id);
+    if (obs && !obs->outlier) AddObservation(frame, *obs, tag);
   }
 }
 
@@ -275,7 +276,7 @@ GlobalAdjustmentSummary AdjustGlobally(const std::vector<FrameState*>& frames, s
     int residuals = 0;
     for (const auto& obs : frame->tags) {
       auto it = tags->find(obs.id);
-      if (it == tags->end()) continue;
+      if (it == tags->end() || obs.outlier) continue;
       MapTag& tag = it->second;
       if (!tag.known && !added[tag.id]) {
         AddPoseBlocks(&problem, &tag.world_from_tag);
@@ -363,7 +364,7 @@ std::map<TagId, std::array<double, 4>> RelaxedTagEdgeLengths(const std::vector<F
     bool added = false;
     for (const auto& obs : frame->tags) {
       auto it = corners.find(obs.id);
-      if (it == corners.end()) continue;
+      if (it == corners.end() || obs.outlier) continue;
       if (!added) {
         AddPoseBlocks(&problem, &cam);
         added = true;

@@ -72,12 +72,11 @@ class CandidateEvaluator {
     if (use.size() < 4) use = AllIndices();
     Candidate c;
     c.method = method;
-    c.cam_from_world = RefinePose(points_, normalized_, use, fx_, fy_, initial, options_.huber_px,
-                                  options_.refine_iterations);
+    c.cam_from_world = RefinePose(points_, normalized_, use, fx_, fy_, initial, HuberPx(), options_.refine_iterations);
     c.inliers = Inliers(c.cam_from_world);
     if (c.inliers.size() >= 4 && c.inliers != use) {
-      c.cam_from_world = RefinePose(points_, normalized_, c.inliers, fx_, fy_, c.cam_from_world, options_.huber_px,
-                                    options_.refine_iterations);
+      c.cam_from_world =
+          RefinePose(points_, normalized_, c.inliers, fx_, fy_, c.cam_from_world, HuberPx(), options_.refine_iterations);
       c.inliers = Inliers(c.cam_from_world);
     }
     Check(&c);
@@ -97,15 +96,37 @@ class CandidateEvaluator {
     return {fx_ * (p.x() / p.z() - normalized_[i].x()), fy_ * (p.y() / p.z() - normalized_[i].y())};
   }
 
+  // Corners in front of the camera within the inlier threshold, and within
+  // outlier_sigmas robust sigmas of the pose's errors (see the options).
   std::vector<int> Inliers(const Rigid3d& pose) const {
-    std::vector<int> out;
+    std::vector<double> errors(points_.size());
+    std::vector<double> in_front;
+    in_front.reserve(points_.size());
     for (size_t i = 0; i < points_.size(); ++i) {
       double depth = 0;
-      const double err = ErrorPx(pose, static_cast<int>(i), &depth).norm();
-      if (depth > 0 && err < options_.ransac_threshold_px) out.push_back(static_cast<int>(i));
+      errors[i] = ErrorPx(pose, static_cast<int>(i), &depth).norm();
+      if (!(depth > 0)) errors[i] = INFINITY;
+      if (errors[i] < InlierThresholdPx()) in_front.push_back(errors[i]);
+    }
+    double threshold = InlierThresholdPx();
+    if (!in_front.empty()) {
+      std::nth_element(in_front.begin(), in_front.begin() + in_front.size() / 2, in_front.end());
+      // The median of a 2D Gaussian error's length is sigma * sqrt(2 ln 2).
+      const double robust_sigma = in_front[in_front.size() / 2] / 1.1774;
+      threshold = std::min(threshold, std::max(options_.min_outlier_px, options_.outlier_sigmas * robust_sigma));
+    }
+    std::vector<int> out;
+    for (size_t i = 0; i < points_.size(); ++i) {
+      if (errors[i] < threshold) out.push_back(static_cast<int>(i));
     }
     return out;
   }
+
+  double InlierThresholdPx() const { return std::max(options_.ransac_threshold_px, 4.0 * options_.corner_sigma_px); }
+  double MaxRmsPx() const {
+    return std::max(options_.max_rms_px, options_.rms_sigmas * std::sqrt(2.0) * options_.corner_sigma_px);
+  }
+  double HuberPx() const { return std::max(options_.huber_px, 2.0 * options_.corner_sigma_px); }
 
   void Check(Candidate* c) const {
     double sum = 0;
@@ -127,8 +148,8 @@ class CandidateEvaluator {
       why << "only " << c->inliers.size() << " inlier corners";
     } else if (!c->in_front) {
       why << "no pose puts the points in front of the camera";
-    } else if (!(c->rms_px <= options_.max_rms_px)) {
-      why << "reprojection RMS " << c->rms_px << " px > " << options_.max_rms_px << " px";
+    } else if (!(c->rms_px <= MaxRmsPx())) {
+      why << "reprojection RMS " << c->rms_px << " px > " << MaxRmsPx() << " px";
     } else if (c->inlier_ratio < options_.min_inlier_ratio) {
       why << "only " << c->inliers.size() << " of " << points_.size() << " corners agree";
     }
@@ -196,6 +217,10 @@ Status PoseEstimatorOptions::Check() const {
   if (ransac_iterations < 1) return MakeError("pose.ransac_iterations must be >= 1");
   if (!(ransac_confidence > 0 && ransac_confidence < 1)) return MakeError("pose.ransac_confidence must be in (0, 1)");
   if (!(max_rms_px > 0)) return MakeError("pose.max_rms_px must be > 0");
+  if (!(corner_sigma_px >= 0)) return MakeError("pose.corner_sigma_px must be >= 0");
+  if (!(rms_sigmas > 0)) return MakeError("pose.rms_sigmas must be > 0");
+  if (!(outlier_sigmas > 0)) return MakeError("pose.outlier_sigmas must be > 0");
+  if (!(min_outlier_px > 0)) return MakeError("pose.min_outlier_px must be > 0");
   if (!(min_inlier_ratio > 0 && min_inlier_ratio <= 1)) return MakeError("pose.min_inlier_ratio must be in (0, 1]");
   if (!(max_rotation_jump_deg > 0)) return MakeError("pose.max_rotation_jump_deg must be > 0");
   if (!(planarity_ratio >= 0 && planarity_ratio < 1)) return MakeError("pose.planarity_ratio must be in [0, 1)");
@@ -341,6 +366,25 @@ std::vector<Rigid3d> TagPoseCandidates(const std::array<Eigen::Vector2d, 4>& nor
   return out;
 }
 
+double MeasureCornerNoisePx(const std::vector<std::array<Eigen::Vector2d, 4>>& tags_normalized,
+                            const std::vector<double>& sizes_m, double fx, double fy) {
+  std::vector<double> squared;
+  squared.reserve(tags_normalized.size());
+  for (size_t t = 0; t < tags_normalized.size() && t < sizes_m.size(); ++t) {
+    const auto candidates = TagPoseCandidates(tags_normalized[t], sizes_m[t]);
+    if (candidates.empty()) continue;
+    double sum = 0;
+    for (int k = 0; k < 4; ++k) {
+      const Eigen::Vector2d e = (candidates.front() * TagCornerInTag(k, sizes_m[t])).hnormalized() - tags_normalized[t][k];
+      sum += fx * fx * e.x() * e.x() + fy * fy * e.y() * e.y();
+    }
+    squared.push_back(sum);
+  }
+  if (squared.empty()) return 0.0;
+  std::nth_element(squared.begin(), squared.begin() + squared.size() / 2, squared.end());
+  return std::sqrt(squared[squared.size() / 2] / (2.0 * std::log(2.0)));
+}
+
 PoseResult EstimatePose(const std::vector<Eigen::Vector3d>& points_in_world,
                         const std::vector<Eigen::Vector2d>& normalized, double fx, double fy,
                         const std::optional<Rigid3d>& previous, const PoseEstimatorOptions& options) {
@@ -385,7 +429,8 @@ PoseResult EstimatePose(const std::vector<Eigen::Vector3d>& points_in_world,
       bool ok = false;
       if (ransac) {
         ok = cv::solvePnPRansac(object_all, image_all, identity, cv::noArray(), rvec, tvec, false,
-                                options.ransac_iterations, static_cast<float>(options.ransac_threshold_px / f),
+                                options.ransac_iterations,
+                                static_cast<float>(std::max(options.ransac_threshold_px, 4.0 * options.corner_sigma_px) / f),
                                 options.ransac_confidence, support, cv::SOLVEPNP_EPNP);
       } else {
         support = use;

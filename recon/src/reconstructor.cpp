@@ -115,7 +115,7 @@ bool Reconstructor::TryBootstrap(FrameState& frame) {
   for (const auto& obs : frame.tags) sizes[obs.id] = targets_.SizeOf(obs.id);
   for (FrameState* earlier : bootstrap_buffer_) {
     const auto boot = BootstrapFromTwoViews(*earlier, frame, sizes, fx_, fy_);
-    if (!boot || boot->view_angle_deg < options_.bootstrap_min_angle_deg || boot->rms_px > options_.max_tag_init_rms_px) {
+    if (!boot || boot->view_angle_deg < options_.bootstrap_min_angle_deg || boot->rms_px > TagInitLimitPx()) {
       continue;
     }
     anchor_ = boot->anchor;
@@ -223,7 +223,9 @@ void Reconstructor::CountMethod(const FrameState& frame) {
 void Reconstructor::Register(FrameState& frame, bool adjust, FrameReport* report) {
   std::vector<Eigen::Vector3d> points;
   std::vector<Eigen::Vector2d> observed;
-  for (const auto& obs : frame.tags) {
+  std::vector<TagObservation*> used;  // one per 4 correspondences
+  for (auto& obs : frame.tags) {
+    obs.outlier = false;
     auto it = tags_.find(obs.id);
     if (it == tags_.end()) continue;
     const TagCorners corners = it->second.CornersInWorld();
@@ -231,6 +233,7 @@ void Reconstructor::Register(FrameState& frame, bool adjust, FrameReport* report
       points.push_back(corners[k]);
       observed.push_back(obs.normalized[k]);
     }
+    used.push_back(&obs);
     ++report->tags_used;
   }
   if (points.empty() && adjust) {
@@ -240,11 +243,15 @@ void Reconstructor::Register(FrameState& frame, bool adjust, FrameReport* report
     std::vector<TagId> forced = MapPendingTagsNow(frame);
     for (TagId id : forced) {
       const TagCorners corners = tags_.at(id).CornersInWorld();
-      const TagObservation* obs = frame.Find(id);
+      TagObservation* obs = nullptr;
+      for (auto& o : frame.tags) {
+        if (o.id == id) obs = &o;
+      }
       for (int k = 0; k < 4; ++k) {
         points.push_back(corners[k]);
         observed.push_back(obs->normalized[k]);
       }
+      used.push_back(obs);
       ++report->tags_used;
     }
     for (TagId id : forced) window_->AddTag(&tags_.at(id));
@@ -253,10 +260,28 @@ void Reconstructor::Register(FrameState& frame, bool adjust, FrameReport* report
     frame.reason = "none of its " + std::to_string(frame.tags.size()) + " tags is in the map yet";
     return;
   }
-  const PoseResult pose = EstimatePose(points, observed, fx_, fy_, PreviousPose(frame), options_.pose);
+  PoseEstimatorOptions pose_options = options_.pose;
+  pose_options.corner_sigma_px = std::max(pose_options.corner_sigma_px, corner_noise_px_);
+  PoseResult pose = EstimatePose(points, observed, fx_, fy_, PreviousPose(frame), pose_options);
+  if (!pose.registered) {
+    // Noisier corners than the fixed limits allow? Measure this frame's
+    // corner noise from its tags' shapes and check against that instead.
+    const double sigma = MeasureFrameNoisePx(frame);
+    if (sigma > pose_options.corner_sigma_px) {
+      RememberNoise(sigma);
+      pose_options.corner_sigma_px = sigma;
+      pose = EstimatePose(points, observed, fx_, fy_, PreviousPose(frame), pose_options);
+    }
+  }
   if (!pose.registered) {
     frame.reason = pose.reason;
     return;
+  }
+  // Tags with a corner outside the pose's inliers stay out of the adjustments.
+  std::vector<bool> inlier(points.size(), false);
+  for (int i : pose.inliers) inlier[i] = true;
+  for (size_t t = 0; t < used.size(); ++t) {
+    for (int k = 0; k < 4; ++k) used[t]->outlier = used[t]->outlier || !inlier[4 * t + k];
   }
   frame.registered = true;
   frame.reason.clear();
@@ -279,6 +304,65 @@ void Reconstructor::Register(FrameState& frame, bool adjust, FrameReport* report
   }
 }
 
+double Reconstructor::TagInitLimitPx() const {
+  return std::max(options_.max_tag_init_rms_px, options_.pose.rms_sigmas * std::sqrt(2.0) * corner_noise_px_);
+}
+
+double Reconstructor::MeasureFrameNoisePx(const FrameState& frame) const {
+  std::vector<std::array<Eigen::Vector2d, 4>> corners;
+  std::vector<double> sizes;
+  for (const auto& obs : frame.tags) {
+    corners.push_back(obs.normalized);
+    sizes.push_back(targets_.SizeOf(obs.id));
+  }
+  return MeasureCornerNoisePx(corners, sizes, fx_, fy_);
+}
+
+void Reconstructor::RememberNoise(double sigma_px) {
+  // The median of the last few measurements: one odd frame does not set it.
+  noise_measurements_.push_back(sigma_px);
+  if (noise_measurements_.size() > 15) noise_measurements_.pop_front();
+  std::vector<double> sorted(noise_measurements_.begin(), noise_measurements_.end());
+  std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());
+  corner_noise_px_ = sorted[sorted.size() / 2];
+}
+
+int Reconstructor::FlagOutlierObservations(const std::vector<FrameState*>& frames) {
+  // Against the current poses and map: a tag view whose worst corner is off
+  // by more than outlier_sigmas robust sigmas of all corners (and at least
+  // min_outlier_px) is left out, as EstimatePose does within one frame.
+  std::vector<double> errors;
+  std::vector<std::pair<TagObservation*, double>> worst;
+  for (FrameState* frame : frames) {
+    const Rigid3d cam_from_world = frame->cam_from_world.ToRigid();
+    for (auto& obs : frame->tags) {
+      obs.outlier = false;
+      auto it = tags_.find(obs.id);
+      if (it == tags_.end()) continue;
+      const TagCorners corners = it->second.CornersInWorld();
+      double max_error = 0;
+      for (int k = 0; k < 4; ++k) {
+        const Eigen::Vector3d p = cam_from_world * corners[k];
+        const Eigen::Vector2d e = p.hnormalized() - obs.normalized[k];
+        const double error = p.z() > 0 ? std::hypot(fx_ * e.x(), fy_ * e.y()) : INFINITY;
+        errors.push_back(error);
+        max_error = std::max(max_error, error);
+      }
+      worst.emplace_back(&obs, max_error);
+    }
+  }
+  if (errors.empty()) return 0;
+  std::nth_element(errors.begin(), errors.begin() + errors.size() / 2, errors.end());
+  const double robust_sigma = errors[errors.size() / 2] / 1.1774;  // median 2D error = sigma sqrt(2 ln 2)
+  const double threshold = std::max(options_.pose.min_outlier_px, options_.pose.outlier_sigmas * robust_sigma);
+  int flagged = 0;
+  for (auto& [obs, error] : worst) {
+    obs->outlier = !(error <= threshold);
+    flagged += obs->outlier;
+  }
+  return flagged;
+}
+
 int Reconstructor::MapPendingTags(FrameState& frame, std::vector<TagId>* added) {
   for (const auto& obs : frame.tags) {
     if (tags_.count(obs.id)) continue;
@@ -297,7 +381,7 @@ int Reconstructor::MapPendingTags(FrameState& frame, std::vector<TagId>* added) 
                         static_cast<int>(views.size()) >= options_.max_pending_views;
     if (!enough) continue;
     const auto init = InitializeTag(tag_views, size, fx_, fy_);
-    if (!init || init->rms_px > options_.max_tag_init_rms_px) continue;
+    if (!init || init->rms_px > TagInitLimitPx()) continue;
     MapTag tag;
     tag.id = obs.id;
     tag.size_m = size;
@@ -330,7 +414,7 @@ std::vector<TagId> Reconstructor::MapPendingTagsNow(const FrameState& frame) {
       for (const Rigid3d& cam_from_tag : TagPoseCandidates(views[v].observation->normalized, size)) {
         const Rigid3d world_from_tag = world_from_cam * cam_from_tag;
         const double rms = TagPoseRmsPx(world_from_tag, size, views, fx_, fy_);
-        if (!(rms <= options_.max_tag_init_rms_px)) continue;
+        if (!(rms <= TagInitLimitPx())) continue;
         for (const Rigid3d& here_from_tag : here) {
           const Rigid3d implied = here_from_tag * world_from_tag.Inverse();
           const double score = previous ? RotationAngleDeg(implied.rotation, previous->rotation) : rms;
@@ -384,7 +468,7 @@ ReconstructionResult Reconstructor::Finish() {
     std::vector<TagView> views;
     for (FrameState* f : it->second) views.push_back({f, f->Find(id)});
     const auto init = InitializeTag(views, targets_.SizeOf(id), fx_, fy_);
-    if (!init || init->rms_px > options_.max_tag_init_rms_px) continue;
+    if (!init || init->rms_px > TagInitLimitPx()) continue;
     if (registered_frames >= 2 &&
         MaxViewAngleDeg(views, init->world_from_tag.translation) < options_.min_tag_view_angle_deg) {
       continue;
@@ -423,6 +507,7 @@ ReconstructionResult Reconstructor::Finish() {
     }
   }
   if (options_.final_adjustment && !registered.empty()) {
+    result.outlier_observations = FlagOutlierObservations(registered);
     const bool refine = options_.refine_intrinsics && camera_.kind == CameraModel::Kind::kPinhole &&
                         camera_.distortion.size() <= 5 &&
                         (camera_.distortion.size() < 3 || (camera_.distortion[2] == 0 && camera_.distortion[3] == 0)) &&
@@ -444,7 +529,7 @@ ReconstructionResult Reconstructor::Finish() {
     const Rigid3d cam_from_world = frame->cam_from_world.ToRigid();
     for (const auto& obs : frame->tags) {
       auto it = tags_.find(obs.id);
-      if (it == tags_.end()) continue;
+      if (it == tags_.end() || obs.outlier) continue;
       const TagCorners corners = it->second.CornersInWorld();
       auto& [sum, count] = per_tag[obs.id];
       for (int k = 0; k < 4; ++k) {

@@ -92,6 +92,7 @@ Status WriteReport(const std::filesystem::path& path, const ReconstructionResult
   report["targets_mapped"] = result.tags.size();
   report["points"] = 4 * result.tags.size();
   report["observations"] = result.observations;
+  report["outlier_observations"] = result.outlier_observations;  // tag views left out of the adjustment
   report["reprojection_rms_px"] = result.reprojection_rms_px;
   report["target_reprojection_rms_px"] = result.reprojection_rms_px;
   report["runtime_s"] = stats.runtime_s;

@@ -25,6 +25,9 @@ struct TagObservation {
                                         Eigen::Vector2d::Zero()};
   std::array<Eigen::Vector2d, 4> normalized{Eigen::Vector2d::Zero(), Eigen::Vector2d::Zero(),
                                             Eigen::Vector2d::Zero(), Eigen::Vector2d::Zero()};
+  // A corner of it disagrees with the rest of the frame (e.g. a tag cut by
+  // the image border): left out of the adjustments and the RMS figures.
+  bool outlier = false;
 };
 
 struct FrameState {
@@ -85,6 +88,7 @@ struct ReconstructionResult {
   std::string covariance_note;               // why absent, when absent
   double reprojection_rms_px = 0;            // all observations of mapped tags in registered frames
   int observations = 0;
+  int outlier_observations = 0;              // tag views left out (TagObservation::outlier)
   std::map<std::string, int> pose_method_counts;  // "epnp", "sqpnp", "ippe", "fallback", ...
   std::optional<TagId> anchor_tag;           // the tag that fixes the world frame (no known map)
   bool global_adjustment_converged = false;

@@ -92,6 +92,15 @@ class Reconstructor {
   bool IsKeyframe(const FrameState& frame, bool added_tags) const;
   std::optional<Rigid3d> PreviousPose(const FrameState& frame) const;
   void CountMethod(const FrameState& frame);
+  // The frame's corner noise from its tags' shapes (MeasureCornerNoisePx).
+  double MeasureFrameNoisePx(const FrameState& frame) const;
+  void RememberNoise(double sigma_px);
+  // A new tag's fit is accepted within this RMS: the fixed limit, or more
+  // when the measured corner noise asks for it.
+  double TagInitLimitPx() const;
+  // Marks the tag views that disagree with the current poses and map
+  // (TagObservation::outlier); returns how many.
+  int FlagOutlierObservations(const std::vector<FrameState*>& frames);
 
   CameraModel camera_;
   TargetConfig targets_;
@@ -107,6 +116,10 @@ class Reconstructor {
   const FrameState* last_keyframe_ = nullptr;
   std::unique_ptr<SlidingWindowBundleAdjuster> window_;
   std::map<std::string, int> method_counts_;
+  // Corner noise per axis measured on frames whose pose failed the fixed
+  // limits (0: none yet); the pose checks follow it.
+  std::deque<double> noise_measurements_;
+  double corner_noise_px_ = 0;
 };
 
 }  // namespace tagsfm
