@@ -1,17 +1,23 @@
 // tagsfm replay REC --out OUT: the whole pipeline on a recording, as the live
 // daemon would run it, frame by frame: read, detect tags, reconstruct; then
-// the final adjustment and the result files (docs/recon.md).
+// the final adjustment and the result files (docs/recon.md). With
+// --realtime, frames are paced at their timestamps and the live feedback is
+// served on the dashboard, as `run` serves it, so that a recording can be
+// watched (or a dashboard tried) without a camera; the results are the same.
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
 #include <optional>
 #include <string>
+#include <thread>
 
 #include <spdlog/spdlog.h>
 
 #include "command_registry.h"
 #include "replay_support.h"
 #include "tagsfm/capture/recording.h"
+#include "tagsfm/dashboard/dashboard_server.h"
+#include "tagsfm/feedback/live_feedback.h"
 #include "tagsfm/recon/camera_calibration.h"
 #include "tagsfm/recon/reconstructor.h"
 #include "tagsfm/recon/result_writer.h"
@@ -26,6 +32,34 @@ struct ReplayArgs {
   bool no_features = false;
   bool no_targets = false;
   bool realtime = false;
+  std::string dashboard = "127.0.0.1:8080";
+};
+
+// Holds each frame back until its timestamp (relative to the first frame's)
+// has come, on the wall clock. A frame whose time has passed goes at once:
+// a replay never drops frames; it counts how many came late.
+class FramePacer {
+ public:
+  void WaitFor(std::int64_t timestamp_ns) {
+    const auto now = std::chrono::steady_clock::now();
+    if (!first_timestamp_ns_) {
+      first_timestamp_ns_ = timestamp_ns;
+      start_ = now;
+      return;
+    }
+    const auto due = start_ + std::chrono::nanoseconds(timestamp_ns - *first_timestamp_ns_);
+    if (due > now) {
+      std::this_thread::sleep_until(due);
+    } else if (now - due > std::chrono::milliseconds(100)) {
+      ++late_frames_;
+    }
+  }
+  int late_frames() const { return late_frames_; }
+
+ private:
+  std::optional<std::int64_t> first_timestamp_ns_;
+  std::chrono::steady_clock::time_point start_;
+  int late_frames_ = 0;
 };
 
 double MsSince(std::chrono::steady_clock::time_point start) {
@@ -70,10 +104,6 @@ int RunReplay(const ReplayArgs& args) {
   const auto start = std::chrono::steady_clock::now();
   if (args.no_targets) {
     spdlog::error("--no-targets (feature SfM alone) is not available yet: this build reconstructs from targets only");
-    return 2;
-  }
-  if (args.realtime) {
-    spdlog::error("--realtime (paced replay with the live dashboard) is not available yet");
     return 2;
   }
   auto reader = RecordingReader::Open(args.recording);
@@ -171,20 +201,43 @@ int RunReplay(const ReplayArgs& args) {
     spdlog::error("{}: {}", (reader->dir() / "recording.yaml").string(), recon.error().message);
     return 1;
   }
+  // Realtime: the dashboard and the live feedback, as `run` has them.
+  std::unique_ptr<DashboardServer> dashboard;
+  std::optional<LiveFeedback> feedback;
+  FramePacer pacer;
+  if (args.realtime) {
+    auto server = DashboardServer::Start(args.dashboard);
+    if (!server) {
+      spdlog::error("--dashboard: {}", server.error().message);
+      return 1;
+    }
+    dashboard = std::move(*server);
+    feedback.emplace(camera, info.targets, LiveFeedbackOptions{});
+    spdlog::info("dashboard at {}; replaying at the recording's pace", dashboard->url());
+  }
+
   ProgressLine progress("replay", entries.size());
   for (size_t i = 0; i < entries.size(); ++i) {
+    if (args.realtime) pacer.WaitFor(entries[i].timestamp_ns);
     std::optional<DetectionSet> detections = cached.empty() ? detect(i, nullptr, nullptr) : std::move(cached[i]);
     if (detections) {
       const auto t0 = std::chrono::steady_clock::now();
-      (*recon)->AddFrame(*detections);
+      const FrameReport report = (*recon)->AddFrame(*detections);
       stats.frame_latency_ms.push_back(MsSince(t0));
+      if (feedback) dashboard->Publish(LiveStatusJson(feedback->Update(*detections, report, entries[i].timestamp_ns)));
     }
     progress.Update(i + 1);
   }
   progress.Done();
+  if (pacer.late_frames() > 0) {
+    spdlog::warn("{} frames were processed more than 100 ms after their time: this machine is slower than the "
+                 "recording's frame rate (a live run would have dropped frames from live feedback)",
+                 pacer.late_frames());
+  }
   const ReconstructionResult result = (*recon)->Finish();
   stats.runtime_s = MsSince(start) / 1000.0;
   stats.peak_rss_mb = PeakRssMb();
+  if (dashboard) dashboard->Stop();
   if (Status s = WriteResults(args.out, result, stats); !s) {
     spdlog::error("{}", s.error().message);
     return 1;
@@ -203,7 +256,9 @@ void AddReplayCommand(CLI::App& app, int& exit_code) {
   cmd->add_option("--targets", args->targets, "known target map (targets.csv), overriding the recording's");
   cmd->add_flag("--no-features", args->no_features, "targets only (photogrammetry alone)");
   cmd->add_flag("--no-targets", args->no_targets, "feature SfM alone (not available yet)");
-  cmd->add_flag("--realtime", args->realtime, "pace frames at their timestamps and serve the dashboard (not available yet)");
+  cmd->add_flag("--realtime", args->realtime, "pace frames at their timestamps and serve the live dashboard, like run");
+  cmd->add_option("--dashboard", args->dashboard, "with --realtime: serve the dashboard at ADDR:PORT (port 0: any free one)")
+      ->capture_default_str();
   cmd->callback([args, &exit_code] { exit_code = RunReplay(*args); });
 }
 
