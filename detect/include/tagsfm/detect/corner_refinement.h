@@ -19,14 +19,26 @@ struct EdgeLine {
 };
 
 struct TagLayout;
+struct CameraModel;
 
 // Fits each of the tag's four outer edges and intersects adjacent lines.
-// Each edge is fitted by Levenberg-Marquardt to the pixels of a band around
-// it, with a model of the blurred step plus the blurred modules behind the
+// Each edge is fitted by Gauss-Newton to the pixels of a band around it,
+// with a model of the blurred step plus the blurred modules behind the
 // border that have the outside's shade (from the layout: on small, blurred
 // tags that inner edge, one module in, otherwise pulls the edge outward by up
-// to 0.1 px). Unknown layout (empty like_border): a plain blurred step.
-bool RefineCornersByEdgeLines(const cv::Mat& gray8, const TagLayout& layout, QuadCorners* corners);
+// to 0.1 px) and the adjacent edges near the corners. Unknown layout (empty
+// like_border): a plain blurred step (and the adjacent edges).
+//
+// `camera` (optional, may be null): the image's camera model. With lens
+// distortion the edges are straight only in undistorted coordinates, and a
+// line fitted to distorted pixels carries the edge's sagitta (~0.01-0.03 px
+// on a 24 px tag near the border of a typical wide lens): the band's pixels
+// are then mapped to undistorted pixel coordinates (the same K, no
+// distortion), the lines fitted and intersected there, and the corners
+// mapped back through the distortion. `corners` are image pixels either way.
+// Without distortion the camera changes nothing.
+bool RefineCornersByEdgeLines(const cv::Mat& gray8, const TagLayout& layout, QuadCorners* corners,
+                              const CameraModel* camera = nullptr);
 
 // OpenCV cornerSubPix on each corner, with a window smaller than one module.
 bool RefineCornersBySubPix(const cv::Mat& gray8, int modules_across, QuadCorners* corners);
