@@ -260,10 +260,10 @@ bool FitEdgeModel(const EdgeModel& model, double half_length, int max_iterations
 }
 
 // Image pixels to undistorted pixel coordinates (the same K, no
-// distortion) around one tag, where edges are straight: a cubic polynomial
+// distortion) around one tag, where edges are straight: a polynomial
 // fitted to exact undistortion on a grid over the tag's neighbourhood (exact
 // undistortion is iterative and ~100x dearer per pixel; over a tag's few
-// dozen pixels a cubic follows it to well below 1e-3 px, checked between the
+// dozen pixels a quartic follows it to below 1e-3 px, checked between the
 // grid's points).
 class LocalUndistortion {
  public:
@@ -281,7 +281,7 @@ class LocalUndistortion {
       }
     }
     const std::vector<Eigen::Vector2d> normalized = camera.PixelsToNormalized(pixels);
-    Eigen::MatrixXd a(kGrid * kGrid, 10);
+    Eigen::MatrixXd a(kGrid * kGrid, kTerms);
     Eigen::MatrixXd b(kGrid * kGrid, 2);
     int row = 0;
     for (size_t k = 0; k < pixels.size(); ++k) {
@@ -312,10 +312,12 @@ class LocalUndistortion {
   }
 
  private:
-  Eigen::Matrix<double, 10, 1> Monomials(const Eigen::Vector2d& pixel) const {
+  static constexpr int kTerms = 15;  // all monomials up to degree 4
+  Eigen::Matrix<double, kTerms, 1> Monomials(const Eigen::Vector2d& pixel) const {
     const double x = (pixel.x() - center_.x()) / scale_, y = (pixel.y() - center_.y()) / scale_;
-    Eigen::Matrix<double, 10, 1> m;
-    m << 1, x, y, x * x, x * y, y * y, x * x * x, x * x * y, x * y * y, y * y * y;
+    const double x2 = x * x, y2 = y * y;
+    Eigen::Matrix<double, kTerms, 1> m;
+    m << 1, x, y, x2, x * y, y2, x2 * x, x2 * y, x * y2, y2 * y, x2 * x2, x2 * x * y, x2 * y2, x * y2 * y, y2 * y2;
     return m;
   }
   Eigen::Vector2d ToPixel(const Eigen::Vector2d& normalized) const {
@@ -325,7 +327,7 @@ class LocalUndistortion {
   const CameraModel* camera_ = nullptr;
   Eigen::Vector2d center_;
   double scale_ = 1.0;
-  Eigen::Matrix<double, 10, 2> coefficients_;
+  Eigen::Matrix<double, kTerms, 2> coefficients_;
 };
 
 // The pixels of edge i's band: from 0.8 module outside the edge to 1.5

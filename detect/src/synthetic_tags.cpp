@@ -22,6 +22,50 @@ struct ImageU8Deleter {
 constexpr int kFineSamples = 987;
 constexpr int kFibonacciStep = 610;
 
+// Canvas coordinates (possibly `scale` times finer than the image, pixel
+// centre x at scale x + shift) to the undistorted image coordinates the
+// tags' corners are given in (the same scale), and back.
+class CanvasMap {
+ public:
+  CanvasMap(const CameraModel* camera, double scale) : camera_(camera), scale_(scale), shift_(0.5 * (scale - 1.0)) {}
+
+  Eigen::Vector2d ToScene(double x, double y) const {
+    if (camera_ == nullptr) return {x, y};
+    const Eigen::Vector2d d(((x - shift_) / scale_ - camera_->cx) / camera_->fx,
+                            ((y - shift_) / scale_ - camera_->cy) / camera_->fy);
+    const Eigen::Vector2d n = Undistort(d);
+    return {scale_ * (camera_->fx * n.x() + camera_->cx) + shift_, scale_ * (camera_->fy * n.y() + camera_->cy) + shift_};
+  }
+  Eigen::Vector2d ToCanvas(const Eigen::Vector2d& scene) const {
+    if (camera_ == nullptr) return scene;
+    const Eigen::Vector2d u = (scene - Eigen::Vector2d(shift_, shift_)) / scale_;
+    const Eigen::Vector2d d =
+        camera_->Project(Eigen::Vector3d((u.x() - camera_->cx) / camera_->fx, (u.y() - camera_->cy) / camera_->fy, 1.0));
+    return scale_ * d + Eigen::Vector2d(shift_, shift_);
+  }
+
+ private:
+  // OpenCV's radial-tangential model (k1, k2, p1, p2, k3) inverted by
+  // fixed-point iteration, to ~1e-12 for the moderate distortions of tests.
+  Eigen::Vector2d Undistort(const Eigen::Vector2d& distorted) const {
+    const std::vector<double>& c = camera_->distortion;
+    auto k = [&](size_t i) { return i < c.size() ? c[i] : 0.0; };
+    Eigen::Vector2d n = distorted;
+    for (int it = 0; it < 30; ++it) {
+      const double r2 = n.squaredNorm();
+      const double radial = 1.0 + r2 * (k(0) + r2 * (k(1) + r2 * k(4)));
+      const double dx = 2.0 * k(2) * n.x() * n.y() + k(3) * (r2 + 2.0 * n.x() * n.x());
+      const double dy = k(2) * (r2 + 2.0 * n.y() * n.y()) + 2.0 * k(3) * n.x() * n.y();
+      n = Eigen::Vector2d((distorted.x() - dx) / radial, (distorted.y() - dy) / radial);
+    }
+    return n;
+  }
+
+  const CameraModel* camera_;
+  double scale_;
+  double shift_;
+};
+
 // Draws each tag (bitmap plus paper margin) into `canvas`, every pixel
 // integrated over its area: a coarse `supersample` grid per axis finds the
 // pixels an edge crosses, and those are integrated on a Fibonacci lattice of
@@ -29,7 +73,8 @@ constexpr int kFibonacciStep = 610;
 // in x and in y, so an edge at any angle is placed to 1/fine_samples px (a
 // regular grid would quantise an axis-aligned edge to 1/supersample px).
 Status DrawTags(apriltag_family_t* fam, const std::string& family_name, const std::vector<PlacedTag>& tags,
-                const TagRenderOptions& options, int supersample, int fine_samples, int fine_step, cv::Mat* canvas) {
+                const TagRenderOptions& options, const CanvasMap& map, int supersample, int fine_samples, int fine_step,
+                cv::Mat* canvas) {
   const int width = canvas->cols, height = canvas->rows;
   const int total = fam->total_width;
   const double border_start = (fam->total_width - fam->width_at_border) / 2;
@@ -53,20 +98,22 @@ Status DrawTags(apriltag_family_t* fam, const std::string& family_name, const st
     const double reach = border_start + options.paper_margin_modules;
     for (double u : {-reach, across + reach}) {
       for (double v : {-reach, across + reach}) {
-        const Eigen::Vector3d p = h * Eigen::Vector3d(u, v, 1.0);
-        x_min = std::min(x_min, p.x() / p.z());
-        x_max = std::max(x_max, p.x() / p.z());
-        y_min = std::min(y_min, p.y() / p.z());
-        y_max = std::max(y_max, p.y() / p.z());
+        const Eigen::Vector2d p = map.ToCanvas((h * Eigen::Vector3d(u, v, 1.0)).hnormalized());
+        x_min = std::min(x_min, p.x());
+        x_max = std::max(x_max, p.x());
+        y_min = std::min(y_min, p.y());
+        y_max = std::max(y_max, p.y());
       }
     }
-    const int x0 = std::max(0, static_cast<int>(std::floor(x_min)) - 1);
-    const int x1 = std::min(width - 1, static_cast<int>(std::ceil(x_max)) + 1);
-    const int y0 = std::max(0, static_cast<int>(std::floor(y_min)) - 1);
-    const int y1 = std::min(height - 1, static_cast<int>(std::ceil(y_max)) + 1);
+    // (Under distortion the sides bow: a wider margin.)
+    const int margin = options.camera != nullptr ? 2 + static_cast<int>(0.05 * (x_max - x_min + y_max - y_min)) : 1;
+    const int x0 = std::max(0, static_cast<int>(std::floor(x_min)) - margin);
+    const int x1 = std::min(width - 1, static_cast<int>(std::ceil(x_max)) + margin);
+    const int y0 = std::max(0, static_cast<int>(std::floor(y_min)) - margin);
+    const int y1 = std::min(height - 1, static_cast<int>(std::ceil(y_max)) + margin);
     // Value of the bitmap (or -1 outside it) at an image point.
     auto bitmap_value = [&](double x, double y) -> double {
-      const Eigen::Vector3d q = square_from_image * Eigen::Vector3d(x, y, 1.0);
+      const Eigen::Vector3d q = square_from_image * map.ToScene(x, y).homogeneous();
       const double bx = q.x() / q.z() + border_start;
       const double by = q.y() / q.z() + border_start;
       if (!(bx >= 0 && by >= 0 && bx < total && by < total)) {
@@ -115,6 +162,10 @@ Result<cv::Mat> RenderTags(const std::string& family_name, int width, int height
   if (options.blur_oversample < 1 || options.blur_oversample > 8) {
     return MakeError("RenderTags: blur_oversample must be in 1..8");
   }
+  if (options.camera != nullptr && options.camera->HasDistortion() &&
+      (options.camera->kind != CameraModel::Kind::kPinhole || options.camera->distortion.size() > 5)) {
+    return MakeError("RenderTags: distortion rendering supports the pinhole model's k1, k2, p1, p2, k3 only");
+  }
   Result<detail::FamilyPtr> family = detail::CreateAprilTagFamily(family_name);
   if (!family) return family.error();
 
@@ -122,8 +173,8 @@ Result<cv::Mat> RenderTags(const std::string& family_name, int width, int height
   const int f = options.blur_sigma_px > 0.0 ? options.blur_oversample : 1;
   if (f == 1) {
     canvas = cv::Mat(height, width, CV_32F, cv::Scalar(options.background));
-    Status drawn = DrawTags(family->get(), family_name, tags, options, options.supersample, kFineSamples,
-                            kFibonacciStep, &canvas);
+    Status drawn = DrawTags(family->get(), family_name, tags, options, CanvasMap(options.camera, 1.0),
+                            options.supersample, kFineSamples, kFibonacciStep, &canvas);
     if (!drawn) return drawn.error();
     if (options.blur_sigma_px > 0.0) {
       cv::GaussianBlur(canvas, canvas, cv::Size(0, 0), options.blur_sigma_px, 0.0, cv::BORDER_REFLECT);
@@ -143,7 +194,7 @@ Result<cv::Mat> RenderTags(const std::string& family_name, int width, int height
     cv::Mat fine(height * f, width * f, CV_32F, cv::Scalar(options.background));
     // The same absolute precision as at f = 1: 144 lattice points per fine
     // pixel are ~2300 per output pixel.
-    Status drawn = DrawTags(family->get(), family_name, fine_tags, options,
+    Status drawn = DrawTags(family->get(), family_name, fine_tags, options, CanvasMap(options.camera, f),
                             std::max(2, (options.supersample + f - 1) / f), 144, 89, &fine);
     if (!drawn) return drawn.error();
     cv::GaussianBlur(fine, fine, cv::Size(0, 0), f * options.blur_sigma_px, 0.0, cv::BORDER_REFLECT);

@@ -10,6 +10,7 @@
 
 #include <opencv2/core.hpp>
 
+#include "tagsfm/core/camera_model.h"
 #include "tagsfm/core/result.h"
 #include "tagsfm/detect/corner_refinement.h"
 #include "tagsfm/detect/tag_detection.h"
@@ -37,6 +38,11 @@ struct TagRenderOptions {
   double paper_margin_modules = 1.0;  // white paper beyond libapriltag's bitmap
                                       // (which has one white module already)
   std::uint64_t seed = 1;
+  // Optional lens (not owned): with distortion (pinhole k1, k2, p1, p2, k3),
+  // the tags' corners are undistorted pixel coordinates (this camera's K
+  // without distortion) and the image is what the distorting lens sees, so a
+  // corner's true image position is camera->Project of its ray.
+  const CameraModel* camera = nullptr;
 };
 
 // An 8-bit grey image with the tags drawn; ids beyond the family, an unknown
