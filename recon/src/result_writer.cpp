@@ -90,14 +90,31 @@ Status WriteReport(const std::filesystem::path& path, const ReconstructionResult
   report["frames_skipped"] = stats.frames_skipped;
   report["targets_seen"] = seen.size();
   report["targets_mapped"] = result.tags.size();
-  report["points"] = 4 * result.tags.size();
+  report["points"] = 4 * result.tags.size() + result.feature_points.size();
+  report["feature_points"] = result.feature_points.size();
   report["observations"] = result.observations;
   report["outlier_observations"] = result.outlier_observations;  // tag views left out of the adjustment
-  report["reprojection_rms_px"] = result.reprojection_rms_px;
+  // All observations: target corners and feature points together.
+  double sum_sq = result.reprojection_rms_px * result.reprojection_rms_px * result.observations;
+  double feature_sum_sq = 0;
+  size_t count = static_cast<size_t>(result.observations), feature_count = 0;
+  for (const FeaturePoint& p : result.feature_points) {
+    feature_sum_sq += p.reprojection_rms_px * p.reprojection_rms_px * static_cast<double>(p.observations.size());
+    feature_count += p.observations.size();
+  }
+  sum_sq += feature_sum_sq;
+  count += feature_count;
+  report["reprojection_rms_px"] = count ? std::sqrt(sum_sq / static_cast<double>(count)) : 0.0;
+  report["feature_reprojection_rms_px"] = feature_count ? std::sqrt(feature_sum_sq / static_cast<double>(feature_count)) : 0.0;
   report["target_reprojection_rms_px"] = result.reprojection_rms_px;
   report["runtime_s"] = stats.runtime_s;
   report["frame_latency_ms"] = LatencyJson(stats.frame_latency_ms);
   if (!stats.detection_ms.empty()) report["detection_ms"] = LatencyJson(stats.detection_ms);
+  if (!stats.feature_ms.empty()) {
+    report["feature_keyframes"] = stats.feature_ms.size();
+    report["feature_ms"] = LatencyJson(stats.feature_ms);
+    report["triangulation_s"] = stats.triangulation_s;
+  }
   report["peak_rss_mb"] = stats.peak_rss_mb;
   report["mode"] = stats.mode;
   report["pose_methods"] = result.pose_method_counts;
@@ -119,8 +136,8 @@ Status WriteCloudPly(const std::filesystem::path& path, const ReconstructionResu
   const auto stats = ComputeCornerStats(result);
   std::ostringstream header;
   header << "ply\nformat binary_little_endian 1.0\n"
-         << "comment tagsfm: target corners (vertex id = 4 * tag_id + corner)\n"
-         << "element vertex " << 4 * result.tags.size() << "\n"
+         << "comment tagsfm: target corners (vertex id = 4 * tag_id + corner), then feature points\n"
+         << "element vertex " << 4 * result.tags.size() + result.feature_points.size() << "\n"
          << "property double x\nproperty double y\nproperty double z\n"
          << "property uchar red\nproperty uchar green\nproperty uchar blue\n"
          << "property int track_length\nproperty float reprojection_error\nend_header\n";
@@ -145,6 +162,14 @@ Status WriteCloudPly(const std::filesystem::path& path, const ReconstructionResu
       append(&track, sizeof(track));
       append(&error, sizeof(error));
     }
+  }
+  for (const FeaturePoint& p : result.feature_points) {
+    append(p.position.data(), 3 * sizeof(double));
+    append(p.rgb.data(), 3);
+    const std::int32_t track = static_cast<std::int32_t>(p.observations.size());
+    const float error = static_cast<float>(p.reprojection_rms_px);
+    append(&track, sizeof(track));
+    append(&error, sizeof(error));
   }
   return WriteFileAtomically(path, bytes);
 }
@@ -179,6 +204,13 @@ Status WriteColmapModel(const std::filesystem::path& dir, const ReconstructionRe
   images << std::setprecision(17) << "# Image list with two lines of data per image:\n"
          << "#   IMAGE_ID, QW, QX, QY, QZ, TX, TY, TZ, CAMERA_ID, NAME\n#   POINTS2D[] as (X, Y, POINT3D_ID)\n";
   std::map<long long, std::vector<std::pair<int, int>>> tracks;  // point id -> (image id, point2D index)
+  // Feature observations by frame: (pixel, point id).
+  std::map<FrameId, std::vector<std::pair<Eigen::Vector2d, long long>>> feature_views;
+  for (size_t i = 0; i < result.feature_points.size(); ++i) {
+    for (const auto& [frame, pixel] : result.feature_points[i].observations) {
+      feature_views[frame].emplace_back(pixel, kFirstFeaturePointId + static_cast<long long>(i));
+    }
+  }
   int image_id = 0;
   for (const auto& f : result.frames) {
     if (!f.registered) continue;
@@ -199,6 +231,13 @@ Status WriteColmapModel(const std::filesystem::path& dir, const ReconstructionRe
         ++index;
       }
     }
+    if (auto it = feature_views.find(f.frame); it != feature_views.end()) {
+      for (const auto& [pixel, point_id] : it->second) {
+        images << (first ? "" : " ") << pixel.x() + 0.5 << " " << pixel.y() + 0.5 << " " << point_id;
+        first = false;
+        tracks[point_id].emplace_back(image_id, index++);
+      }
+    }
     images << "\n";
   }
   const auto corner_stats = ComputeCornerStats(result);
@@ -215,6 +254,14 @@ Status WriteColmapModel(const std::filesystem::path& dir, const ReconstructionRe
       for (const auto& [img, idx] : tracks[point_id]) points << " " << img << " " << idx;
       points << "\n";
     }
+  }
+  for (size_t i = 0; i < result.feature_points.size(); ++i) {
+    const FeaturePoint& p = result.feature_points[i];
+    const long long point_id = kFirstFeaturePointId + static_cast<long long>(i);
+    points << point_id << " " << p.position.x() << " " << p.position.y() << " " << p.position.z() << " "
+           << int{p.rgb[0]} << " " << int{p.rgb[1]} << " " << int{p.rgb[2]} << " " << p.reprojection_rms_px;
+    for (const auto& [img, idx] : tracks[point_id]) points << " " << img << " " << idx;
+    points << "\n";
   }
   if (Status s = WriteFileAtomically(dir / "cameras.txt", cameras.str()); !s) return s;
   if (Status s = WriteFileAtomically(dir / "images.txt", images.str()); !s) return s;

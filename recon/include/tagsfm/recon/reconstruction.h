@@ -12,6 +12,7 @@
 
 #include "tagsfm/core/camera_model.h"
 #include "tagsfm/core/csv_formats.h"
+#include "tagsfm/recon/feature_triangulation.h"
 #include "tagsfm/recon/pose_estimator.h"
 #include "tagsfm/recon/pose_params.h"
 
@@ -78,6 +79,10 @@ struct TargetStats {
   bool known = false;
 };
 
+// Point ids of the result files: target corners are 4 * tag_id + corner + 1,
+// feature point i (in feature_points' order) is kFirstFeaturePointId + i.
+constexpr long long kFirstFeaturePointId = 100000000;
+
 // What a finished reconstruction hands to the writers.
 struct ReconstructionResult {
   CameraModel camera;
@@ -94,6 +99,9 @@ struct ReconstructionResult {
   bool global_adjustment_converged = false;
   bool intrinsics_refined = false;           // `camera` is the adjusted one
   double global_adjustment_s = 0, covariance_s = 0;
+  // Natural features triangulated from the final poses (empty with
+  // --no-features); their ids in the result files start at kFirstFeaturePointId.
+  std::vector<FeaturePoint> feature_points;
 
   PoseMap Poses() const;
   TargetCornerMap Targets() const;

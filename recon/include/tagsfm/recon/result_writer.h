@@ -22,6 +22,8 @@ struct RunStats {
   double runtime_s = 0;
   std::vector<double> frame_latency_ms; // reconstruction per frame, detection aside
   std::vector<double> detection_ms;     // detection per frame
+  std::vector<double> feature_ms;       // feature tracking per feature keyframe
+  double triangulation_s = 0;           // feature points from the final poses
   double peak_rss_mb = 0;
   std::map<FrameId, std::string> image_names;  // for colmap/images.txt
   std::string mode;                     // "known map", "no map", ...
