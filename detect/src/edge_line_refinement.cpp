@@ -8,8 +8,9 @@
 // border is white, and pulls a centroid outward by up to 0.1 px. The decoded
 // tag's layout says where those white modules are, so each edge is fitted
 // with a model of the blurred outer step plus the blurred white modules
-// behind the border (see EdgeModel), by Levenberg-Marquardt on the pixels of
-// a band around the edge.
+// behind the border and the adjacent edges (see EdgeModel), by Gauss-Newton
+// on the pixels of a band around the edge. With a camera model the fit runs
+// in undistorted pixel coordinates (LocalUndistortion).
 #include <algorithm>
 #include <array>
 #include <cmath>
