@@ -14,6 +14,7 @@
 #include <spdlog/spdlog.h>
 
 #include "command_registry.h"
+#include "feature_pipeline.h"
 #include "replay_support.h"
 #include "tagsfm/capture/recording.h"
 #include "tagsfm/dashboard/dashboard_server.h"
@@ -80,12 +81,13 @@ void PrintSummary(const ReconstructionResult& result, const RunStats& stats, con
                "\n  frames       %d read, %d skipped (unreadable)\n"
                "  registered   %d of %d frames\n"
                "  targets      %zu in the map (%s)\n"
-               "  reprojection %.3f px RMS over %d corner observations\n"
+               "  features     %zu points triangulated from the final poses\n"
+               "  reprojection %.3f px RMS over %d target corner observations\n"
                "  per frame    %.2f ms p50, %.2f ms p95 (detection aside)\n"
                "  runtime      %.1f s, peak memory %.0f MB\n"
                "  results in   %s  (poses.csv, targets.csv, report.json, cloud.ply, colmap/, preview.png)\n\n",
                stats.frames, stats.frames_skipped, registered, stats.frames - stats.frames_skipped,
-               result.tags.size(), stats.mode.c_str(), result.reprojection_rms_px, result.observations,
+               result.tags.size(), stats.mode.c_str(), result.feature_points.size(), result.reprojection_rms_px, result.observations,
                stats.frame_latency_ms.empty() ? 0.0 : [&] {
                  auto v = stats.frame_latency_ms;
                  std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
@@ -143,7 +145,9 @@ int RunReplay(const ReplayArgs& args) {
   RunStats stats;
   stats.frames = static_cast<int>(entries.size());
   stats.mode = mode;
+  std::optional<Frame> last_frame;  // the frame detect() read last, for the features
   auto detect = [&](size_t i, int* width, int* height) -> std::optional<DetectionSet> {
+    last_frame.reset();
     auto frame = reader->LoadFrame(i);
     if (!frame) {
       spdlog::warn("skipping frame {}: {}", entries[i].frame, frame.error().message);
@@ -163,6 +167,7 @@ int RunReplay(const ReplayArgs& args) {
       stats.skipped.emplace_back(entries[i].frame, detections.error().message);
       return std::nullopt;
     }
+    last_frame = std::move(*frame);
     return std::move(*detections);
   };
 
@@ -216,6 +221,16 @@ int RunReplay(const ReplayArgs& args) {
     spdlog::info("dashboard at {}; replaying at the recording's pace", dashboard->url());
   }
 
+  std::unique_ptr<FeaturePipeline> features;
+  if (!args.no_features) {
+    auto pipeline = FeaturePipeline::Create(camera, info.targets, {});
+    if (!pipeline) {
+      spdlog::error("{}", pipeline.error().message);
+      return 1;
+    }
+    features = std::move(*pipeline);
+  }
+
   ProgressLine progress("replay", entries.size());
   for (size_t i = 0; i < entries.size(); ++i) {
     if (args.realtime) pacer.WaitFor(entries[i].timestamp_ns);
@@ -224,6 +239,19 @@ int RunReplay(const ReplayArgs& args) {
       const auto t0 = std::chrono::steady_clock::now();
       const FrameReport report = (*recon)->AddFrame(*detections);
       stats.frame_latency_ms.push_back(MsSince(t0));
+      if (features && features->SelectKeyframe(*detections, report)) {
+        if (!last_frame) {  // calibrated first: the frame was read before
+          auto frame = reader->LoadFrame(i);
+          if (frame) last_frame = std::move(*frame);
+        }
+        if (last_frame) {
+          const auto t1 = std::chrono::steady_clock::now();
+          if (Status s = features->Track(last_frame->gray, last_frame->image, *detections); !s) {
+            spdlog::warn("frame {}: features: {}", entries[i].frame, s.error().message);
+          }
+          stats.feature_ms.push_back(MsSince(t1));
+        }
+      }
       if (feedback) dashboard->Publish(LiveStatusJson(feedback->Update(*detections, report, entries[i].timestamp_ns)));
     }
     progress.Update(i + 1);
@@ -234,7 +262,12 @@ int RunReplay(const ReplayArgs& args) {
                  "recording's frame rate (a live run would have dropped frames from live feedback)",
                  pacer.late_frames());
   }
-  const ReconstructionResult result = (*recon)->Finish();
+  ReconstructionResult result = (*recon)->Finish();
+  if (features) {
+    const auto t0 = std::chrono::steady_clock::now();
+    result.feature_points = features->Triangulate(result.Poses(), result.camera);
+    stats.triangulation_s = MsSince(t0) / 1000.0;
+  }
   stats.runtime_s = MsSince(start) / 1000.0;
   stats.peak_rss_mb = PeakRssMb();
   if (dashboard) dashboard->Stop();
@@ -254,7 +287,7 @@ void AddReplayCommand(CLI::App& app, int& exit_code) {
   cmd->add_option("recording", args->recording, "recording folder (recording.yaml, frames.csv, frames/)")->required();
   cmd->add_option("--out", args->out, "output folder for the results")->required();
   cmd->add_option("--targets", args->targets, "known target map (targets.csv), overriding the recording's");
-  cmd->add_flag("--no-features", args->no_features, "targets only (photogrammetry alone)");
+  cmd->add_flag("--no-features", args->no_features, "targets only (photogrammetry alone): no SIFT feature points");
   cmd->add_flag("--no-targets", args->no_targets, "feature SfM alone (not available yet)");
   cmd->add_flag("--realtime", args->realtime, "pace frames at their timestamps and serve the live dashboard, like run");
   cmd->add_option("--dashboard", args->dashboard, "with --realtime: serve the dashboard at ADDR:PORT (port 0: any free one)")

@@ -14,6 +14,7 @@
 #include <spdlog/spdlog.h>
 
 #include "command_registry.h"
+#include "feature_pipeline.h"
 #include "replay_support.h"
 #include "run_config.h"
 #include "tagsfm/capture/recorder.h"
@@ -84,6 +85,34 @@ struct RunArgs {
 
 double MsSince(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+}
+
+// The feature keyframes selected live, tracked from what was recorded (the
+// live loop never waits for SIFT). A frame that cannot be read is left out
+// with a warning.
+void TrackRecordedKeyframes(const std::string& record_dir, const std::vector<DetectionSet>& keyframes,
+                            FeaturePipeline& features, RunStats* stats) {
+  if (keyframes.empty()) return;
+  auto recording = RecordingReader::Open(record_dir);
+  if (!recording) {
+    spdlog::warn("features: {}", recording.error().message);
+    return;
+  }
+  std::map<FrameId, size_t> entry_of;
+  for (size_t i = 0; i < recording->entries().size(); ++i) entry_of[recording->entries()[i].frame] = i;
+  for (const DetectionSet& detections : keyframes) {
+    auto it = entry_of.find(detections.frame);
+    auto frame = it == entry_of.end() ? Result<Frame>(MakeError("not in the recording")) : recording->LoadFrame(it->second);
+    if (!frame) {
+      spdlog::warn("frame {}: features: {}", detections.frame, frame.error().message);
+      continue;
+    }
+    const auto t0 = std::chrono::steady_clock::now();
+    if (Status s = features.Track(frame->gray, frame->image, detections); !s) {
+      spdlog::warn("frame {}: features: {}", detections.frame, s.error().message);
+    }
+    stats->feature_ms.push_back(MsSince(t0));
+  }
 }
 
 int RunDaemon(const RunArgs& args) {
@@ -159,6 +188,13 @@ int RunDaemon(const RunArgs& args) {
     queue.Close();
   });
 
+  auto features = FeaturePipeline::Create(*info.camera, info.targets, {});
+  if (!features) {
+    spdlog::error("{}", features.error().message);
+    return 2;
+  }
+  std::vector<DetectionSet> feature_keyframes;  // tracked from the recording at the end
+
   LiveFeedback feedback(*info.camera, info.targets, config->feedback);
   RunStats stats;
   stats.mode = known_map ? "known map (" + std::to_string(known_map->size()) + " targets held fixed)"
@@ -181,6 +217,7 @@ int RunDaemon(const RunArgs& args) {
     const auto t1 = std::chrono::steady_clock::now();
     const FrameReport report = (*recon)->AddFrame(*detections);
     stats.frame_latency_ms.push_back(MsSince(t1));
+    if ((*features)->SelectKeyframe(*detections, report)) feature_keyframes.push_back(*detections);
     const LiveStatus& status = feedback.Update(*detections, report, frame->timestamp_ns);
     (*dashboard)->Publish(LiveStatusJson(status));
     // The terminal gets a warning when its kind appears, not every frame
@@ -203,7 +240,11 @@ int RunDaemon(const RunArgs& args) {
                  "`tagsfm replay {}` processes them all", queue.dropped(), config->record_dir);
   }
 
-  const ReconstructionResult result = (*recon)->Finish();
+  ReconstructionResult result = (*recon)->Finish();
+  TrackRecordedKeyframes(config->record_dir, feature_keyframes, **features, &stats);
+  const auto t_triangulate = std::chrono::steady_clock::now();
+  result.feature_points = (*features)->Triangulate(result.Poses(), result.camera);
+  stats.triangulation_s = MsSince(t_triangulate) / 1000.0;
   stats.runtime_s = MsSince(start) / 1000.0;
   stats.peak_rss_mb = PeakRssMb();
   const Status written = WriteResults(config->results_dir, result, stats);

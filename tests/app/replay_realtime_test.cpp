@@ -1,5 +1,6 @@
 // `tagsfm replay --realtime`: paced at the recording's timestamps, with the
-// live dashboard served, and the same results as a plain replay.
+// live dashboard served, and the same results as a plain replay (targets
+// only: the features are the same code either way, tested elsewhere).
 #include <sys/wait.h>
 
 #include <chrono>
@@ -43,7 +44,7 @@ TEST(ReplayRealtime, TakesAtLeastTheRecordingsDurationAndGivesThePlainReplaysRes
   const std::string exe = testing::TagsfmExe().string();
   const auto start = std::chrono::steady_clock::now();
   ASSERT_EQ(RunCommand(exe + " replay " + recording.string() + " --out " + (tmp.path() / "paced").string() +
-                           " --realtime --dashboard 127.0.0.1:0",
+                           " --realtime --dashboard 127.0.0.1:0 --no-features",
                        tmp.path() / "paced.log"),
             0)
       << Read(tmp.path() / "paced.log");
@@ -54,7 +55,7 @@ TEST(ReplayRealtime, TakesAtLeastTheRecordingsDurationAndGivesThePlainReplaysRes
   EXPECT_NE(Read(tmp.path() / "paced.log").find("dashboard at http://127.0.0.1:"), std::string::npos)
       << Read(tmp.path() / "paced.log");
 
-  ASSERT_EQ(RunCommand(exe + " replay " + recording.string() + " --out " + (tmp.path() / "plain").string(),
+  ASSERT_EQ(RunCommand(exe + " replay " + recording.string() + " --out " + (tmp.path() / "plain").string() + " --no-features",
                        tmp.path() / "plain.log"),
             0)
       << Read(tmp.path() / "plain.log");

@@ -7,6 +7,7 @@
 #include <sstream>
 
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 
 #include "tagsfm/capture/recording.h"
 #include "tagsfm/core/csv_formats.h"
@@ -70,6 +71,13 @@ TEST(RunDaemon, RecordsEveryFrameAndGivesTheSameResultAsAReplay) {
     EXPECT_LT((pose.translation - replay_poses->at(frame).translation).norm(), 1e-9) << "frame " << frame;
     EXPECT_LT(RotationAngleDeg(pose.rotation, replay_poses->at(frame).rotation), 1e-7) << "frame " << frame;
   }
+  // Feature points: the daemon selects the same keyframes live and tracks
+  // them from the recording at the end, so it finds the replay's points.
+  const auto live_report = nlohmann::json::parse(Read(tmp.path() / "live" / "results" / "report.json"));
+  const auto replay_report = nlohmann::json::parse(Read(replay_out / "report.json"));
+  EXPECT_GT(live_report["feature_points"].get<int>(), 0);
+  EXPECT_EQ(live_report["feature_points"].get<int>(), replay_report["feature_points"].get<int>());
+  EXPECT_EQ(live_report["feature_keyframes"].get<int>(), replay_report["feature_keyframes"].get<int>());
 }
 
 TEST(RunDaemon, ABadConfigIsAOneLineErrorNamingTheField) {

@@ -1,0 +1,64 @@
+#include "feature_pipeline.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace tagsfm {
+
+Status FeaturePipelineOptions::Check() const {
+  if (Status s = tracker.Check(); !s) return s;
+  if (Status s = triangulation.Check(); !s) return s;
+  if (!(keyframe_baseline >= 0)) return MakeError("features.keyframe_baseline must be >= 0");
+  if (!(keyframe_rotation_deg >= 0)) return MakeError("features.keyframe_rotation_deg must be >= 0");
+  return Status::Ok();
+}
+
+FeaturePipeline::FeaturePipeline(CameraModel camera, TargetConfig targets, FeaturePipelineOptions options,
+                                 std::unique_ptr<FeatureTracker> tracker)
+    : camera_(std::move(camera)), targets_(std::move(targets)), options_(options), tracker_(std::move(tracker)) {}
+
+Result<std::unique_ptr<FeaturePipeline>> FeaturePipeline::Create(const CameraModel& camera, const TargetConfig& targets,
+                                                                 const FeaturePipelineOptions& options) {
+  if (Status s = options.Check(); !s) return s.error();
+  auto tracker = FeatureTracker::Create(options.tracker);
+  if (!tracker) return tracker.error();
+  return std::unique_ptr<FeaturePipeline>(new FeaturePipeline(camera, targets, options, std::move(*tracker)));
+}
+
+bool FeaturePipeline::SelectKeyframe(const DetectionSet& detections, const FrameReport& report) {
+  if (!report.registered) return false;
+  if (!last_keyframe_ || IsFarFromLastKeyframe(detections, report)) {
+    last_keyframe_ = report.cam_from_world;
+    return true;
+  }
+  return false;
+}
+
+bool FeaturePipeline::IsFarFromLastKeyframe(const DetectionSet& detections, const FrameReport& report) const {
+  if (RotationAngleDeg(report.cam_from_world.rotation, last_keyframe_->rotation) >= options_.keyframe_rotation_deg) return true;
+  // Distance to the tags from their apparent size (median over the tags in
+  // view): f * size / side.
+  std::vector<double> depths;
+  for (const TagDetection& tag : detections.tags) {
+    double side = 0;
+    for (int k = 0; k < 4; ++k) side += (tag.corners[static_cast<size_t>(k)] - tag.corners[static_cast<size_t>((k + 1) % 4)]).norm() / 4;
+    if (side > 1) depths.push_back(camera_.fx * targets_.SizeOf(tag.id) / side);
+  }
+  if (depths.empty()) return false;
+  std::nth_element(depths.begin(), depths.begin() + static_cast<long>(depths.size() / 2), depths.end());
+  const double moved = (report.cam_from_world.Center() - last_keyframe_->Center()).norm();
+  return moved >= options_.keyframe_baseline * depths[depths.size() / 2];
+}
+
+Status FeaturePipeline::Track(const cv::Mat& gray, const cv::Mat& colour, const DetectionSet& detections) {
+  auto set = tracker_->Track(gray, colour, detections);
+  if (!set) return set.error();
+  sets_.push_back(std::move(*set));
+  return Status::Ok();
+}
+
+std::vector<FeaturePoint> FeaturePipeline::Triangulate(const PoseMap& cam_from_world, const CameraModel& camera) const {
+  return TriangulateFeatureTracks(sets_, cam_from_world, camera, options_.triangulation);
+}
+
+}  // namespace tagsfm
