@@ -407,13 +407,27 @@ std::vector<TagId> Reconstructor::MapPendingTagsNow(const FrameState& frame) {
     for (FrameState* f : it->second) views.push_back({f, f->Find(obs.id)});
     const double size = targets_.SizeOf(obs.id);
     const auto here = TagPoseCandidates(obs.normalized, size);
-    std::optional<Rigid3d> best;
-    double best_score = INFINITY;
+    // Each recent view's IPPE pair, checked against the view it came from,
+    // and the pose refined over all views (the cameras fixed), checked
+    // against all. On a room walk, two views' poses from few tags each left
+    // every candidate of the next tag 3-4 px off in the other view: checked
+    // against all views, the chain broke there. The global adjustment
+    // settles such disagreements; the frame's own pose is still checked.
+    std::vector<std::pair<Rigid3d, std::vector<TagView>>> candidates;
     for (size_t v = views.size() > 3 ? views.size() - 3 : 0; v < views.size(); ++v) {
       const Rigid3d world_from_cam = views[v].frame->cam_from_world.ToRigid().Inverse();
       for (const Rigid3d& cam_from_tag : TagPoseCandidates(views[v].observation->normalized, size)) {
-        const Rigid3d world_from_tag = world_from_cam * cam_from_tag;
-        const double rms = TagPoseRmsPx(world_from_tag, size, views, fx_, fy_);
+        candidates.push_back({world_from_cam * cam_from_tag, {views[v]}});
+      }
+    }
+    if (views.size() >= 2) {
+      if (const auto refined = InitializeTag(views, size, fx_, fy_)) candidates.push_back({refined->world_from_tag, views});
+    }
+    std::optional<Rigid3d> best;
+    double best_score = INFINITY;
+    for (const auto& [world_from_tag, checked_views] : candidates) {
+      {
+        const double rms = TagPoseRmsPx(world_from_tag, size, checked_views, fx_, fy_);
         if (!(rms <= TagInitLimitPx())) continue;
         for (const Rigid3d& here_from_tag : here) {
           const Rigid3d implied = here_from_tag * world_from_tag.Inverse();
