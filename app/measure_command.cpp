@@ -1,5 +1,8 @@
-// tagsfm measure OUT A B: the distance between two targets of a replay's
-// result, with its standard deviation from the final adjustment.
+// tagsfm measure OUT A B: the distance between two points of a replay's
+// result, with its standard deviation: targets (tag centre or corner) from
+// the final adjustment's covariance, feature points ("pID", ids as in
+// features.csv and colmap/points3D.txt) from their triangulation's.
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <string>
@@ -8,6 +11,7 @@
 #include <spdlog/spdlog.h>
 
 #include "command_registry.h"
+#include "tagsfm/recon/feature_points_csv.h"
 #include "tagsfm/recon/measurement.h"
 #include "tagsfm/recon/result_writer.h"
 
@@ -20,8 +24,75 @@ struct MeasureArgs {
   bool json = false;
 };
 
+int Print(const MeasureArgs& args, const Measurement& measurement);
+
+bool IsFeatureRef(const std::string& text) { return !text.empty() && (text[0] == 'p' || text[0] == 'P'); }
+
+// A measurement with at least one feature point. The feature's covariance
+// is its triangulation's (the poses and a target taken as exact: both are
+// known far better than a point from a few rays).
+Result<Measurement> MeasureWithFeatures(const std::filesystem::path& dir, const std::string& a_text,
+                                        const std::string& b_text) {
+  auto features = ReadFeaturePointsCsv(dir / "features.csv");
+  if (!features) return features.error();
+  std::optional<TargetCornerMap> targets;
+  auto locate = [&](const std::string& text, Eigen::Vector3d* position, Eigen::Matrix3d* covariance) -> Status {
+    if (IsFeatureRef(text)) {
+      long long id = 0;
+      try {
+        size_t used = 0;
+        id = std::stoll(text.substr(1), &used);
+        if (used != text.size() - 1) throw std::invalid_argument(text);
+      } catch (const std::exception&) {
+        return MakeError("'" + text + "' is not a feature point (pID, e.g. p100000012)");
+      }
+      auto it = features->find(id);
+      if (it == features->end()) return MakeError((dir / "features.csv").string() + ": no feature point " + text.substr(1));
+      *position = it->second.position;
+      *covariance = it->second.covariance;
+      return Status::Ok();
+    }
+    auto ref = ParseTargetPointRef(text);
+    if (!ref) return ref.error();
+    if (!targets) {
+      auto read = ReadTargetsCsv(dir / "targets.csv");
+      if (!read) return read.error();
+      targets = std::move(*read);
+    }
+    auto it = targets->find(ref->tag);
+    if (it == targets->end()) return MakeError((dir / "targets.csv").string() + ": no target " + std::to_string(ref->tag));
+    if (ref->corner >= 0) {
+      *position = it->second[static_cast<size_t>(ref->corner)];
+    } else {
+      *position = Eigen::Vector3d::Zero();
+      for (const Eigen::Vector3d& corner : it->second) *position += corner / 4.0;
+    }
+    covariance->setZero();
+    return Status::Ok();
+  };
+  Measurement m;
+  Eigen::Matrix3d ca, cb;
+  if (Status s = locate(a_text, &m.a, &ca); !s) return s.error();
+  if (Status s = locate(b_text, &m.b, &cb); !s) return s.error();
+  m.distance_m = (m.a - m.b).norm();
+  if (m.distance_m > 0) {
+    const Eigen::Vector3d u = (m.a - m.b) / m.distance_m;
+    m.sigma_m = std::sqrt(std::max(0.0, u.dot((ca + cb) * u)));
+  }
+  m.note = "sigma from the feature points' triangulation; poses and targets taken as exact";
+  return m;
+}
+
 int RunMeasure(const MeasureArgs& args) {
   const std::filesystem::path dir(args.out);
+  if (IsFeatureRef(args.a) || IsFeatureRef(args.b)) {
+    auto m = MeasureWithFeatures(dir, args.a, args.b);
+    if (!m) {
+      spdlog::error("{}", m.error().message);
+      return 1;
+    }
+    return Print(args, *m);
+  }
   auto a = ParseTargetPointRef(args.a);
   auto b = ParseTargetPointRef(args.b);
   if (!a || !b) {
@@ -47,13 +118,18 @@ int RunMeasure(const MeasureArgs& args) {
     spdlog::error("{}: {}", (dir / "targets.csv").string(), m.error().message);
     return 1;
   }
+  return Print(args, *m);
+}
+
+int Print(const MeasureArgs& args, const Measurement& measurement) {
+  const Measurement* m = &measurement;
   if (args.json) {
     nlohmann::json j = {{"a", args.a}, {"b", args.b}, {"distance_m", m->distance_m}};
     j["sigma_m"] = m->sigma_m ? nlohmann::json(*m->sigma_m) : nlohmann::json(nullptr);
     if (!m->note.empty()) j["note"] = m->note;
     std::printf("%s\n", j.dump(2).c_str());
   } else {
-    std::printf("%s to %s: %.6f m", a->ToString().c_str(), b->ToString().c_str(), m->distance_m);
+    std::printf("%s to %s: %.6f m", args.a.c_str(), args.b.c_str(), m->distance_m);
     if (m->sigma_m) std::printf(" +- %.6f m (1 sigma)", *m->sigma_m);
     std::printf("\n");
     if (!m->note.empty()) std::printf("note: %s\n", m->note.c_str());
@@ -63,9 +139,9 @@ int RunMeasure(const MeasureArgs& args) {
 
 void AddMeasureCommand(CLI::App& app, int& exit_code) {
   auto args = std::make_shared<MeasureArgs>();
-  CLI::App* cmd = app.add_subcommand("measure", "distance between two targets of a result, with its standard deviation");
-  cmd->add_option("out", args->out, "a replay's output folder (targets.csv, targets_cov.csv)")->required();
-  cmd->add_option("a", args->a, "a target: tag id (its centre) or ID:CORNER")->required();
+  CLI::App* cmd = app.add_subcommand("measure", "distance between two points of a result (targets or feature points), with its standard deviation");
+  cmd->add_option("out", args->out, "a replay's output folder (targets.csv, targets_cov.csv, features.csv)")->required();
+  cmd->add_option("a", args->a, "a point: tag id (its centre), ID:CORNER, or a feature point pID (features.csv)")->required();
   cmd->add_option("b", args->b, "the other target")->required();
   cmd->add_flag("--json", args->json, "print JSON");
   cmd->callback([args, &exit_code] { exit_code = RunMeasure(*args); });

@@ -41,26 +41,48 @@ std::optional<Eigen::Vector3d> TriangulateLinear(const std::vector<FeatureRay>& 
   return Eigen::Vector3d(x.head<3>() / x(3));
 }
 
+namespace {
+
+// One ray's angular residual (the point's direction in the bearing's
+// tangent plane: the sine of the angle, in two components) and its Jacobian
+// with respect to the world point.
+void AngularResidual(const FeatureRay& ray, const Eigen::Vector3d& x, Eigen::Vector2d* residual,
+                     Eigen::Matrix<double, 2, 3>* jacobian) {
+  const Eigen::Matrix3d r = ray.cam_from_world.RotationMatrix();
+  const Eigen::Vector3d xc = r * x + ray.cam_from_world.translation;
+  const double n = xc.norm();
+  const Eigen::Vector3d dir = xc / n;
+  const Eigen::Vector3d u = ray.bearing.unitOrthogonal();
+  const Eigen::Vector3d v = ray.bearing.cross(u);
+  *residual = Eigen::Vector2d(u.dot(dir), v.dot(dir));
+  const Eigen::Matrix3d ddir = (Eigen::Matrix3d::Identity() - dir * dir.transpose()) / n * r;
+  jacobian->row(0) = u.transpose() * ddir;
+  jacobian->row(1) = v.transpose() * ddir;
+}
+
+}  // namespace
+
+Eigen::Matrix3d AngularNormalMatrix(const std::vector<FeatureRay>& rays, const Eigen::Vector3d& point) {
+  Eigen::Matrix3d h = Eigen::Matrix3d::Zero();
+  Eigen::Vector2d res;
+  Eigen::Matrix<double, 2, 3> j;
+  for (const FeatureRay& ray : rays) {
+    AngularResidual(ray, point, &res, &j);
+    if (j.allFinite()) h += j.transpose() * j;
+  }
+  return h;
+}
+
 Eigen::Vector3d RefineAngularError(const std::vector<FeatureRay>& rays, const Eigen::Vector3d& start, int max_iterations) {
   Eigen::Vector3d x = start;
   for (int iteration = 0; iteration < max_iterations; ++iteration) {
     Eigen::Matrix3d h = Eigen::Matrix3d::Zero();
     Eigen::Vector3d g = Eigen::Vector3d::Zero();
+    Eigen::Vector2d res;
+    Eigen::Matrix<double, 2, 3> j;
     for (const FeatureRay& ray : rays) {
-      const Eigen::Matrix3d r = ray.cam_from_world.RotationMatrix();
-      const Eigen::Vector3d xc = r * x + ray.cam_from_world.translation;
-      const double n = xc.norm();
-      if (!(n > 0)) continue;
-      const Eigen::Vector3d dir = xc / n;
-      // Residual: the point's direction in the bearing's tangent plane
-      // (u, v), i.e. the sine of the angle, split in two components.
-      const Eigen::Vector3d u = ray.bearing.unitOrthogonal();
-      const Eigen::Vector3d v = ray.bearing.cross(u);
-      const Eigen::Vector2d res(u.dot(dir), v.dot(dir));
-      const Eigen::Matrix3d ddir = (Eigen::Matrix3d::Identity() - dir * dir.transpose()) / n * r;
-      Eigen::Matrix<double, 2, 3> j;
-      j.row(0) = u.transpose() * ddir;
-      j.row(1) = v.transpose() * ddir;
+      AngularResidual(ray, x, &res, &j);
+      if (!res.allFinite() || !j.allFinite()) continue;  // the point at a camera's centre
       h += j.transpose() * j;
       g += j.transpose() * res;
     }
@@ -129,6 +151,8 @@ std::vector<FeaturePoint> TriangulateFeatureTracks(const std::vector<FeatureSet>
     p.rgb = track.rgb;
     p.reprojection_rms_px = rms;
     p.max_angle_deg = std::acos(std::clamp(widest_cos, -1.0, 1.0)) * 180.0 / M_PI;
+    const double sigma = std::max(rms, 0.1) / camera.fx;
+    p.covariance = sigma * sigma * AngularNormalMatrix(track.rays, x).inverse();
     p.observations = std::move(track.observations);
     points.push_back(std::move(p));
   }

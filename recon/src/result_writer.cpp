@@ -10,6 +10,7 @@
 #include <nlohmann/json.hpp>
 
 #include "tagsfm/core/file_util.h"
+#include "tagsfm/recon/feature_points_csv.h"
 
 namespace tagsfm {
 namespace {
@@ -337,6 +338,7 @@ Status WriteResults(const std::filesystem::path& out_dir, const ReconstructionRe
   if (Status s = WritePosesCsv(out_dir / "poses.csv", result.Poses()); !s) return s;
   if (Status s = WriteTargetsCsv(out_dir / "targets.csv", result.Targets()); !s) return s;
   if (Status s = WriteCloudPly(out_dir / "cloud.ply", result); !s) return s;
+  if (Status s = WriteFeaturePointsCsv(out_dir / "features.csv", result.feature_points, kFirstFeaturePointId); !s) return s;
   if (Status s = WriteColmapModel(out_dir / "colmap", result, stats); !s) return s;
   if (result.covariance) {
     if (Status s = WriteTargetCovariance(out_dir / "targets_cov.csv", *result.covariance); !s) return s;

@@ -70,7 +70,7 @@ TEST(FeatureTriangulation, AngularRefinementIsNoWorseThanLinearUnderNoise) {
   std::mt19937 rng(3);
   std::normal_distribution<double> noise(0.0, 0.3);
   std::uniform_real_distribution<double> coord(-0.4, 0.4);
-  double linear_sq = 0, refined_sq = 0;
+  double linear_sq = 0, refined_sq = 0, mahalanobis = 0;
   const int n = 300;
   for (int k = 0; k < n; ++k) {
     const Eigen::Vector3d point(coord(rng), coord(rng), coord(rng));
@@ -82,8 +82,18 @@ TEST(FeatureTriangulation, AngularRefinementIsNoWorseThanLinearUnderNoise) {
     const auto linear = TriangulateLinear(rays);
     ASSERT_TRUE(linear.has_value());
     linear_sq += (*linear - point).squaredNorm();
-    refined_sq += (RefineAngularError(rays, *linear, 10) - point).squaredNorm();
+    const Eigen::Vector3d refined = RefineAngularError(rays, *linear, 10);
+    refined_sq += (refined - point).squaredNorm();
+    const double sigma = 0.3 / camera.fx;
+    const Eigen::Matrix3d covariance = sigma * sigma * AngularNormalMatrix(rays, refined).inverse();
+    mahalanobis += (refined - point).dot(covariance.inverse() * (refined - point));
   }
+  // The covariance from the normal matrix explains the errors: the mean
+  // squared Mahalanobis distance is chi-square with 3 dof, mean 3; over 300
+  // draws its standard deviation is sqrt(6/300) = 0.14, so [2.5, 3.5] is a
+  // bound at more than 3 sigma.
+  EXPECT_GT(mahalanobis / n, 2.5);
+  EXPECT_LT(mahalanobis / n, 3.5);
   const double linear_rms = std::sqrt(linear_sq / n), refined_rms = std::sqrt(refined_sq / n);
   EXPECT_LE(refined_rms, linear_rms * 1.001) << "linear " << linear_rms << " refined " << refined_rms;
   EXPECT_LT(refined_rms, 0.003);

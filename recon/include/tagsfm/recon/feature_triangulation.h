@@ -36,6 +36,11 @@ struct FeaturePoint {
   std::array<std::uint8_t, 3> rgb{0, 0, 0};
   double reprojection_rms_px = 0;
   double max_angle_deg = 0;
+  // Position covariance, m^2, from the rays' angular noise (the point's own
+  // reprojection RMS, at least 0.1 px, over fx): the poses' uncertainty is
+  // left out (from 100+ target corners they are far better known than a
+  // point from a few rays).
+  Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();
   std::vector<std::pair<FrameId, Eigen::Vector2d>> observations;  // frame, pixel
 };
 
@@ -53,6 +58,10 @@ std::optional<Eigen::Vector3d> TriangulateLinear(const std::vector<FeatureRay>& 
 // Gauss-Newton on the angular error (tangent-plane residual of each ray)
 // from `start`.
 Eigen::Vector3d RefineAngularError(const std::vector<FeatureRay>& rays, const Eigen::Vector3d& start, int max_iterations);
+
+// Normal matrix J^T J of the angular residuals at `point` (unit angular
+// noise): its inverse times sigma^2 is the point's covariance.
+Eigen::Matrix3d AngularNormalMatrix(const std::vector<FeatureRay>& rays, const Eigen::Vector3d& point);
 
 // Every track seen in at least min_track_length registered frames, whose
 // rays are wide enough apart, in front of every camera, and reprojecting
