@@ -65,6 +65,7 @@ Status BundleAdjusterOptions::Check() const {
   if (global_iterations < 1) return MakeError("ba.global_iterations must be >= 1");
   if (!(huber_px > 0)) return MakeError("ba.huber_px must be > 0");
   if (global_threads < 1) return MakeError("ba.global_threads must be >= 1");
+  if (window_threads < 1) return MakeError("ba.window_threads must be >= 1");
   return Status::Ok();
 }
 
@@ -144,7 +145,7 @@ bool SlidingWindowBundleAdjuster::Solve() {
   ceres::Solver::Options options;
   options.linear_solver_type = ceres::DENSE_SCHUR;
   options.max_num_iterations = options_.window_iterations;
-  options.num_threads = 1;
+  options.num_threads = options_.window_threads;
   options.logging_type = ceres::SILENT;
   ceres::Solver::Summary summary;
   ceres::Solve(options, problem_.get(), &summary);

@@ -27,6 +27,9 @@ struct BundleAdjusterOptions {
   int global_iterations = 100;
   double huber_px = 1.0;          // robust loss scale
   int global_threads = 2;
+  // Threads of a window solve: the rig computer has 2-4 cores and the
+  // window is what sets a keyframe's latency (p95) without a map.
+  int window_threads = 2;
   bool compute_covariance = true; // of the learned tags, after the global adjustment
 
   Status Check() const;
