@@ -25,8 +25,8 @@ struct ColouredPoint {
   cv::Scalar bgr;
 };
 
-// Robust bounds: the 1st to 99th percentile, so that a few stray feature
-// points do not shrink the drawing.
+// Robust bounds of the points: the 1st to 99th percentile, so that a few
+// stray feature points do not shrink the drawing.
 std::pair<double, double> Bounds(std::vector<double> values) {
   if (values.empty()) return {0, 0};
   std::sort(values.begin(), values.end());
@@ -41,13 +41,15 @@ void DrawPanel(cv::Mat& canvas, const cv::Rect& area, const Panel& panel, const 
     us.push_back(c.p[panel.axis_u]);
     vs.push_back(c.p[panel.axis_v]);
   }
-  for (const auto& c : cameras) {
-    us.push_back(c[panel.axis_u]);
-    vs.push_back(c[panel.axis_v]);
+  if (us.empty() && cameras.empty()) return;
+  auto [min_u, max_u] = us.empty() ? std::pair{1e300, -1e300} : Bounds(us);
+  auto [min_v, max_v] = vs.empty() ? std::pair{1e300, -1e300} : Bounds(vs);
+  for (const auto& c : cameras) {  // the whole camera path, always
+    min_u = std::min(min_u, c[panel.axis_u]);
+    max_u = std::max(max_u, c[panel.axis_u]);
+    min_v = std::min(min_v, c[panel.axis_v]);
+    max_v = std::max(max_v, c[panel.axis_v]);
   }
-  if (us.empty()) return;
-  const auto [min_u, max_u] = Bounds(us);
-  const auto [min_v, max_v] = Bounds(vs);
   const double margin = 30;
   const double span = std::max({max_u - min_u, max_v - min_v, 1e-6});
   const double scale = std::min(area.width - 2 * margin, area.height - 2 * margin) / span;
