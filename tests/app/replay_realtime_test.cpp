@@ -1,8 +1,6 @@
 // `tagsfm replay --realtime`: paced at the recording's timestamps, with the
 // live dashboard served, and the same results as a plain replay (targets
 // only: the features are the same code either way, tested elsewhere).
-#include <sys/wait.h>
-
 #include <chrono>
 #include <cstdlib>
 #include <fstream>
@@ -11,25 +9,16 @@
 #include <gtest/gtest.h>
 
 #include "tagsfm/capture/recording.h"
+#include "run_command.h"
 #include "tagsfm/core/csv_formats.h"
 #include "test_paths.h"
 
 namespace tagsfm {
 namespace {
 
+using testing::ReadText;
+using testing::RunCommand;
 using testing::TempDir;
-
-int RunCommand(const std::string& command, const std::filesystem::path& log) {
-  const int status = std::system((command + " > " + log.string() + " 2>&1").c_str());
-  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-}
-
-std::string Read(const std::filesystem::path& path) {
-  std::ifstream in(path);
-  std::stringstream text;
-  text << in.rdbuf();
-  return text.str();
-}
 
 TEST(ReplayRealtime, TakesAtLeastTheRecordingsDurationAndGivesThePlainReplaysResult) {
   const auto recording = testing::RecordingsDir() / "box_small";
@@ -47,18 +36,18 @@ TEST(ReplayRealtime, TakesAtLeastTheRecordingsDurationAndGivesThePlainReplaysRes
                            " --realtime --dashboard 127.0.0.1:0 --no-features",
                        tmp.path() / "paced.log"),
             0)
-      << Read(tmp.path() / "paced.log");
+      << ReadText(tmp.path() / "paced.log");
   const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   // Paced: the last frame is not processed before its time (a lower bound
   // only, which a slow machine cannot break).
   EXPECT_GE(wall_s, duration_s) << "replayed " << duration_s << " s of frames in " << wall_s << " s";
-  EXPECT_NE(Read(tmp.path() / "paced.log").find("dashboard at http://127.0.0.1:"), std::string::npos)
-      << Read(tmp.path() / "paced.log");
+  EXPECT_NE(ReadText(tmp.path() / "paced.log").find("dashboard at http://127.0.0.1:"), std::string::npos)
+      << ReadText(tmp.path() / "paced.log");
 
   ASSERT_EQ(RunCommand(exe + " replay " + recording.string() + " --out " + (tmp.path() / "plain").string() + " --no-features",
                        tmp.path() / "plain.log"),
             0)
-      << Read(tmp.path() / "plain.log");
+      << ReadText(tmp.path() / "plain.log");
   auto paced = ReadPosesCsv(tmp.path() / "paced" / "poses.csv");
   auto plain = ReadPosesCsv(tmp.path() / "plain" / "poses.csv");
   ASSERT_TRUE(paced && plain);

@@ -1,6 +1,4 @@
 // The live daemon end to end, with a recording played as its camera.
-#include <sys/wait.h>
-
 #include <algorithm>
 #include <cstdlib>
 #include <fstream>
@@ -10,25 +8,16 @@
 #include <nlohmann/json.hpp>
 
 #include "tagsfm/capture/recording.h"
+#include "run_command.h"
 #include "tagsfm/core/csv_formats.h"
 #include "test_paths.h"
 
 namespace tagsfm {
 namespace {
 
+using testing::ReadText;
+using testing::RunCommand;
 using testing::TempDir;
-
-int RunCommand(const std::string& command, const std::filesystem::path& log) {
-  const int status = std::system((command + " > " + log.string() + " 2>&1").c_str());
-  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-}
-
-std::string Read(const std::filesystem::path& path) {
-  std::ifstream in(path);
-  std::stringstream text;
-  text << in.rdbuf();
-  return text.str();
-}
 
 TEST(RunDaemon, RecordsEveryFrameAndGivesTheSameResultAsAReplay) {
   const auto source = testing::RecordingsDir() / "box_small";
@@ -38,7 +27,7 @@ TEST(RunDaemon, RecordsEveryFrameAndGivesTheSameResultAsAReplay) {
   std::ofstream(config) << "capture:\n  source: file:" << source.string() << "\n  exposure_us: 1000\n"
                         << "run:\n  record_dir: " << (tmp.path() / "live").string() << "\n  dashboard: 127.0.0.1:0\n";
   ASSERT_EQ(RunCommand(testing::TagsfmExe().string() + " run --config " + config.string(), tmp.path() / "run.log"), 0)
-      << Read(tmp.path() / "run.log");
+      << ReadText(tmp.path() / "run.log");
 
   // Every frame recorded, pixel for pixel.
   auto original = RecordingReader::Open(source);
@@ -59,7 +48,7 @@ TEST(RunDaemon, RecordsEveryFrameAndGivesTheSameResultAsAReplay) {
                     replay_out.string(),
                 tmp.path() / "replay.log"),
             0)
-      << Read(tmp.path() / "replay.log");
+      << ReadText(tmp.path() / "replay.log");
   auto live_poses = ReadPosesCsv(tmp.path() / "live" / "results" / "poses.csv");
   auto replay_poses = ReadPosesCsv(replay_out / "poses.csv");
   ASSERT_TRUE(live_poses && replay_poses);
@@ -73,8 +62,8 @@ TEST(RunDaemon, RecordsEveryFrameAndGivesTheSameResultAsAReplay) {
   }
   // Feature points: the daemon selects the same keyframes live and tracks
   // them from the recording at the end, so it finds the replay's points.
-  const auto live_report = nlohmann::json::parse(Read(tmp.path() / "live" / "results" / "report.json"));
-  const auto replay_report = nlohmann::json::parse(Read(replay_out / "report.json"));
+  const auto live_report = nlohmann::json::parse(ReadText(tmp.path() / "live" / "results" / "report.json"));
+  const auto replay_report = nlohmann::json::parse(ReadText(replay_out / "report.json"));
   EXPECT_GT(live_report["feature_points"].get<int>(), 0);
   EXPECT_EQ(live_report["feature_points"].get<int>(), replay_report["feature_points"].get<int>());
   EXPECT_EQ(live_report["feature_keyframes"].get<int>(), replay_report["feature_keyframes"].get<int>());
@@ -85,18 +74,18 @@ TEST(RunDaemon, ABadConfigIsAOneLineErrorNamingTheField) {
   const auto config = tmp.path() / "run.yaml";
   std::ofstream(config) << "capture:\n  source: v4l2:/dev/video0\n  fps: -5\nrun:\n  record_dir: x\n";
   EXPECT_NE(RunCommand(testing::TagsfmExe().string() + " run --config " + config.string(), tmp.path() / "log"), 0);
-  const std::string log = Read(tmp.path() / "log");
+  const std::string log = ReadText(tmp.path() / "log");
   EXPECT_NE(log.find("capture.fps"), std::string::npos) << log;
   EXPECT_EQ(std::count(log.begin(), log.end(), '\n'), 1) << log;
 
   std::ofstream(config) << "capture:\n  source: v4l2:/dev/video_missing\n";
   EXPECT_NE(RunCommand(testing::TagsfmExe().string() + " run --config " + config.string(), tmp.path() / "log"), 0);
-  EXPECT_NE(Read(tmp.path() / "log").find("run.record_dir"), std::string::npos) << Read(tmp.path() / "log");
+  EXPECT_NE(ReadText(tmp.path() / "log").find("run.record_dir"), std::string::npos) << ReadText(tmp.path() / "log");
 
   std::ofstream(config) << "capture:\n  source: v4l2:/dev/video_missing\nrun:\n  record_dir: "
                         << (tmp.path() / "rec").string() << "\n";
   EXPECT_NE(RunCommand(testing::TagsfmExe().string() + " run --config " + config.string(), tmp.path() / "log"), 0);
-  EXPECT_NE(Read(tmp.path() / "log").find("/dev/video_missing"), std::string::npos) << Read(tmp.path() / "log");
+  EXPECT_NE(ReadText(tmp.path() / "log").find("/dev/video_missing"), std::string::npos) << ReadText(tmp.path() / "log");
 }
 
 }  // namespace
