@@ -10,6 +10,7 @@ Status FeaturePipelineOptions::Check() const {
   if (Status s = triangulation.Check(); !s) return s;
   if (!(keyframe_baseline >= 0)) return MakeError("features.keyframe_baseline must be >= 0");
   if (!(keyframe_rotation_deg >= 0)) return MakeError("features.keyframe_rotation_deg must be >= 0");
+  if (max_feature_image_side < 0) return MakeError("features.max_feature_image_side must be >= 0");
   return Status::Ok();
 }
 
@@ -20,7 +21,12 @@ FeaturePipeline::FeaturePipeline(CameraModel camera, TargetConfig targets, Featu
 Result<std::unique_ptr<FeaturePipeline>> FeaturePipeline::Create(const CameraModel& camera, const TargetConfig& targets,
                                                                  const FeaturePipelineOptions& options) {
   if (Status s = options.Check(); !s) return s.error();
-  auto tracker = FeatureTracker::Create(options.tracker);
+  FeatureTrackerOptions tracker_options = options.tracker;
+  const int side = std::max(camera.width, camera.height);
+  if (options.max_feature_image_side > 0 && side > options.max_feature_image_side) {
+    tracker_options.image_scale = std::min(tracker_options.image_scale, double(options.max_feature_image_side) / side);
+  }
+  auto tracker = FeatureTracker::Create(tracker_options);
   if (!tracker) return tracker.error();
   return std::unique_ptr<FeaturePipeline>(new FeaturePipeline(camera, targets, options, std::move(*tracker)));
 }

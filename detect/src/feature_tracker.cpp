@@ -12,6 +12,7 @@ Status FeatureTrackerOptions::Check() const {
   if (!(epipolar_px > 0)) return MakeError("features.epipolar_px must be > 0");
   if (min_matches < 8) return MakeError("features.min_matches must be >= 8 (the fundamental matrix needs 8)");
   if (!(tag_margin >= 0)) return MakeError("features.tag_margin must be >= 0");
+  if (!(image_scale > 0.1 && image_scale <= 1)) return MakeError("features.image_scale must be in (0.1, 1]");
   return Status::Ok();
 }
 
@@ -62,7 +63,15 @@ Result<FeatureSet> FeatureTracker::Track(const cv::Mat& gray, const cv::Mat& col
   State& s = *state_;
   std::vector<cv::KeyPoint> keypoints;
   cv::Mat descriptors;
-  s.sift->detectAndCompute(gray, MaskOutsideTags(gray.size(), tags, s.options.tag_margin), keypoints, descriptors);
+  const double scale = s.options.image_scale;
+  if (scale < 1.0) {
+    cv::Mat small, mask;
+    cv::resize(gray, small, cv::Size(), scale, scale, cv::INTER_AREA);
+    cv::resize(MaskOutsideTags(gray.size(), tags, s.options.tag_margin), mask, small.size(), 0, 0, cv::INTER_NEAREST);
+    s.sift->detectAndCompute(small, mask, keypoints, descriptors);
+  } else {
+    s.sift->detectAndCompute(gray, MaskOutsideTags(gray.size(), tags, s.options.tag_margin), keypoints, descriptors);
+  }
 
   // OpenCV 4.6's SIFT doubles the image first (pixel-centre aligned) but
   // halves the keypoints' coordinates as if corner aligned: every keypoint
@@ -73,7 +82,11 @@ Result<FeatureSet> FeatureTracker::Track(const cv::Mat& gray, const cv::Mat& col
   constexpr float kSiftOffsetPx = 0.25f;
   std::vector<cv::Point2f> points;
   points.reserve(keypoints.size());
-  for (const cv::KeyPoint& k : keypoints) points.emplace_back(k.pt.x - kSiftOffsetPx, k.pt.y - kSiftOffsetPx);
+  // Back to full-size pixels, pixel centres at integers at both scales.
+  for (const cv::KeyPoint& k : keypoints) {
+    points.emplace_back(static_cast<float>((k.pt.x - kSiftOffsetPx + 0.5) / scale - 0.5),
+                        static_cast<float>((k.pt.y - kSiftOffsetPx + 0.5) / scale - 0.5));
+  }
   std::vector<TrackId> tracks(keypoints.size(), -1);
 
   // Candidate matches: ratio test and mutual best match.

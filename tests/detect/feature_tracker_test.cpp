@@ -34,10 +34,11 @@ struct Residuals {
 };
 
 // Tracks from `first` to `second` (= first warped by h), checked against h.
-Residuals TrackThrough(const cv::Mat& first, const cv::Matx33d& h, const DetectionSet& tags_second) {
+Residuals TrackThrough(const cv::Mat& first, const cv::Matx33d& h, const DetectionSet& tags_second,
+                       const FeatureTrackerOptions& options = {}) {
   cv::Mat second;
   cv::warpPerspective(first, second, cv::Mat(h), first.size(), cv::INTER_CUBIC, cv::BORDER_REFLECT);
-  auto tracker = FeatureTracker::Create({});
+  auto tracker = FeatureTracker::Create(options);
   EXPECT_TRUE(tracker.has_value());
   auto a = (*tracker)->Track(first, cv::Mat(), DetectionSet{0, {}});
   auto b = (*tracker)->Track(second, cv::Mat(), tags_second);
@@ -79,6 +80,22 @@ TEST(FeatureTracker, TracksFollowAKnownHomographyWithoutOffset) {
   // 0.02 px: the mean of several hundred residuals of ~0.1-0.2 px each.
   EXPECT_LT(std::abs(r.mean.x()), 0.02) << "mean residual " << r.mean.transpose();
   EXPECT_LT(std::abs(r.mean.y()), 0.02) << "mean residual " << r.mean.transpose();
+}
+
+// SIFT on the image at half size: the keypoints map back to full-size
+// pixels without an offset either (the same zoom; residuals about twice as
+// large, so twice the bound).
+TEST(FeatureTracker, HalfSizeImageKeepsThePixelConvention) {
+  const cv::Mat first = Texture(960, 720, 5);
+  const double s = 1.5;
+  const cv::Matx33d h(s, 0, -0.5 * (s - 1) * 960, 0, s, -0.5 * (s - 1) * 720, 0, 0, 1);
+  FeatureTrackerOptions options;
+  options.image_scale = 0.5;
+  const Residuals r = TrackThrough(first, h, DetectionSet{1, {}}, options);
+  EXPECT_GE(r.continued, 100);
+  EXPECT_GE(r.within_1px, 0.95 * r.continued) << r.within_1px << " of " << r.continued;
+  EXPECT_LT(std::abs(r.mean.x()), 0.04) << "mean residual " << r.mean.transpose();
+  EXPECT_LT(std::abs(r.mean.y()), 0.04) << "mean residual " << r.mean.transpose();
 }
 
 TEST(FeatureTracker, NoFeaturesOnTags) {
