@@ -3,12 +3,12 @@
 
 #include <algorithm>
 #include <memory>
-#include <thread>
 #include <unordered_map>
 
 #include <apriltag/apriltag.h>
 
 #include "apriltag_family.h"
+#include "tag_detector_workers.h"
 #include "tagsfm/detect/corner_refinement.h"
 #include "tagsfm/detect/tag_layout.h"
 
@@ -80,7 +80,7 @@ class AprilTagDetector final : public TagDetector {
       }
       result.tags.push_back(tag);
     }
-    RefineAll(gray8, &result.tags);
+    RefineDetections(gray8, &result.tags);
     std::sort(result.tags.begin(), result.tags.end(),
               [](const TagDetection& a, const TagDetection& b) { return a.id < b.id; });
     return result;
@@ -100,23 +100,13 @@ class AprilTagDetector final : public TagDetector {
     }
   }
 
-  // Tags are refined independently: on `threads` threads when there are
-  // enough of them to pay for starting the threads.
-  void RefineAll(const cv::Mat& gray8, std::vector<TagDetection>* tags) {
+  // Tags are refined independently, on the detector's threads (a pool
+  // started once: a tag's refinement is 0.1-1 ms, too short to start threads for).
+  void RefineDetections(const cv::Mat& gray8, std::vector<TagDetection>* tags) override {
     if (options_.refinement == CornerRefinement::kNone || options_.refinement == CornerRefinement::kAprilTag) return;
+    if (tags->empty() || gray8.empty()) return;
     for (const TagDetection& tag : *tags) Layout(tag.id);  // fill the cache before threads read it
-    const int workers = std::min<int>(options_.threads, static_cast<int>(tags->size()) / 2);
-    if (workers <= 1) {
-      for (TagDetection& tag : *tags) Refine(gray8, &tag);
-      return;
-    }
-    std::vector<std::thread> pool;
-    for (int w = 0; w < workers; ++w) {
-      pool.emplace_back([&, w] {
-        for (size_t i = w; i < tags->size(); i += workers) Refine(gray8, &(*tags)[i]);
-      });
-    }
-    for (std::thread& t : pool) t.join();
+    workers_.Run(static_cast<int>(tags->size()), [&](int i, int) { Refine(gray8, &(*tags)[i]); });
   }
 
   // A failed refinement keeps libapriltag's corners: a tag is never lost to it.
@@ -144,6 +134,7 @@ class AprilTagDetector final : public TagDetector {
   detail::FamilyPtr family_;
   mutable std::unordered_map<TagId, TagLayout> layouts_;  // per id, built on first sight
   std::unique_ptr<apriltag_detector_t, DetectorDeleter> detector_;
+  detail::DetectionWorkers workers_{options_.threads};
 };
 
 }  // namespace

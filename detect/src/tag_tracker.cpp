@@ -2,8 +2,13 @@
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
 #include <set>
 #include <vector>
+
+#include <Eigen/Dense>
+
+#include "tag_detector_workers.h"
 
 namespace tagsfm {
 
@@ -12,24 +17,44 @@ Status TagTrackerOptions::Check() const {
   if (!(padding_px >= 0.0)) return MakeError("padding_px must be >= 0");
   if (!(padding_fraction >= 0.0)) return MakeError("padding_fraction must be >= 0");
   if (!(region_quad_decimate >= 1.0f)) return MakeError("region_quad_decimate must be >= 1");
+  if (!(entry_band_tag_sizes >= 0.0 && entry_band_tag_sizes <= 100.0)) {
+    return MakeError("entry_band_tag_sizes must be in [0, 100]");
+  }
+  if (!(entry_min_inflow_px >= 0.0)) return MakeError("entry_min_inflow_px must be >= 0");
   return Status::Ok();
 }
 
 TagTracker::TagTracker(TagTrackerOptions options, std::unique_ptr<TagDetector> full,
-                       std::unique_ptr<TagDetector> region)
-    : options_(options), full_detector_(std::move(full)), region_detector_(std::move(region)) {}
+                       std::vector<ThreadDetectors> per_thread)
+    : options_(options),
+      full_detector_(std::move(full)),
+      per_thread_(std::move(per_thread)),
+      workers_(std::make_unique<detail::DetectionWorkers>(static_cast<int>(per_thread_.size()))) {}
+
+TagTracker::~TagTracker() = default;
 
 Result<std::unique_ptr<TagTracker>> TagTracker::Create(const TagDetectorOptions& detector,
                                                        const TagTrackerOptions& tracker) {
   if (Status status = tracker.Check(); !status) return status.error();
   auto full = TagDetector::Create(detector);
   if (!full) return full.error();
-  TagDetectorOptions region_options = detector;
-  region_options.quad_decimate = tracker.region_quad_decimate;
-  region_options.threads = 1;  // regions are small: a thread pool costs more than it saves
-  auto region = TagDetector::Create(region_options);
-  if (!region) return region.error();
-  return std::unique_ptr<TagTracker>(new TagTracker(tracker, std::move(*full), std::move(*region)));
+  // Regions and bands give libapriltag's corners; the full detector refines
+  // them all at once, on its threads.
+  TagDetectorOptions part = detector;
+  part.refine_edges = detector.refine_edges || detector.refinement == CornerRefinement::kAprilTag;
+  part.refinement = CornerRefinement::kNone;
+  part.threads = 1;  // parallel across regions, not inside one
+  std::vector<ThreadDetectors> per_thread;
+  for (int t = 0; t < detector.threads; ++t) {
+    TagDetectorOptions region_options = part;
+    region_options.quad_decimate = tracker.region_quad_decimate;
+    auto region = TagDetector::Create(region_options);
+    if (!region) return region.error();
+    auto band = TagDetector::Create(part);
+    if (!band) return band.error();
+    per_thread.push_back({std::move(*region), std::move(*band)});
+  }
+  return std::unique_ptr<TagTracker>(new TagTracker(tracker, std::move(*full), std::move(per_thread)));
 }
 
 void TagTracker::Reset() {
@@ -116,6 +141,105 @@ std::vector<cv::Rect> MergeOverlapping(std::vector<cv::Rect> regions) {
 
 }  // namespace
 
+namespace {
+
+// Extent of a quad: the larger side of its bounding box.
+double ExtentOf(const QuadCorners& corners) {
+  double x0 = 1e18, y0 = 1e18, x1 = -1e18, y1 = -1e18;
+  for (const Eigen::Vector2d& c : corners) {
+    x0 = std::min(x0, c.x());
+    y0 = std::min(y0, c.y());
+    x1 = std::max(x1, c.x());
+    y1 = std::max(y1, c.y());
+  }
+  return std::max(x1 - x0, y1 - y0);
+}
+
+// Whether a quad lies wholly inside the image, `margin` px clear of its border.
+bool WhollyInside(const QuadCorners& corners, const cv::Size& image, double margin) {
+  for (const Eigen::Vector2d& c : corners) {
+    if (!(c.x() >= margin && c.y() >= margin && c.x() <= image.width - 1 - margin &&
+          c.y() <= image.height - 1 - margin)) {
+      return false;
+    }
+  }
+  return true;
+}
+
+}  // namespace
+
+// The image motion per frame is fitted to the tracked tags' last corner
+// displacements: an affine flow field d(x) = M x + t with three tags or more
+// (pan, roll and zoom all show in it), a translation with fewer. A border
+// gets a band where d points into the image by entry_min_inflow_px somewhere
+// along it.
+void TagTracker::AddEntryBands(const cv::Size& image, std::vector<Search>* searches) const {
+  std::vector<Eigen::Vector2d> points, flows;
+  std::set<TagId> moving_tags;
+  double largest = 0.0;
+  for (const auto& [id, track] : tracks_) {
+    largest = std::max(largest, ExtentOf(track.corners));
+    if (!track.previous || track.frame == track.previous_frame) continue;
+    moving_tags.insert(id);
+    const double dt = static_cast<double>(track.frame - track.previous_frame);
+    for (int k = 0; k < 4; ++k) {
+      points.push_back(track.corners[k]);
+      flows.push_back((track.corners[k] - (*track.previous)[k]) / dt);
+    }
+  }
+  if (points.empty() || largest <= 0.0) return;
+  Eigen::Matrix2d m = Eigen::Matrix2d::Zero();
+  Eigen::Vector2d t = Eigen::Vector2d::Zero();
+  for (const Eigen::Vector2d& f : flows) t += f;
+  t /= static_cast<double>(flows.size());
+  if (moving_tags.size() >= 3) {
+    // Least squares for [M t] on centred coordinates (well conditioned).
+    Eigen::Vector2d mean = Eigen::Vector2d::Zero();
+    for (const Eigen::Vector2d& p : points) mean += p;
+    mean /= static_cast<double>(points.size());
+    Eigen::Matrix3d normal = Eigen::Matrix3d::Zero();
+    Eigen::Matrix<double, 3, 2> rhs = Eigen::Matrix<double, 3, 2>::Zero();
+    for (size_t i = 0; i < points.size(); ++i) {
+      const Eigen::Vector3d a((points[i] - mean).x(), (points[i] - mean).y(), 1.0);
+      normal += a * a.transpose();
+      rhs += a * flows[i].transpose();
+    }
+    const Eigen::Matrix<double, 3, 2> x = normal.ldlt().solve(rhs);
+    if (x.allFinite()) {
+      m = x.topRows<2>().transpose();
+      t = x.row(2).transpose() - m * mean;
+    }
+  }
+  const auto flow_at = [&](double px, double py) { return Eigen::Vector2d(m * Eigen::Vector2d(px, py) + t); };
+  const double w = image.width - 1.0, h = image.height - 1.0;
+  struct Border {
+    Eigen::Vector2d a, b, inward;
+  };
+  const Border borders[4] = {{{0, 0}, {0, h}, {1, 0}},    // left
+                             {{w, 0}, {w, h}, {-1, 0}},   // right
+                             {{0, 0}, {w, 0}, {0, 1}},    // top
+                             {{0, h}, {w, h}, {0, -1}}};  // bottom
+  for (int side = 0; side < 4; ++side) {
+    const Border& border = borders[side];
+    double inflow = -1e18;
+    for (int i = 0; i <= 8; ++i) {  // the flow is affine: its extremes are at the ends; 9 samples for clarity
+      const Eigen::Vector2d p = border.a + (border.b - border.a) * (i / 8.0);
+      inflow = std::max(inflow, flow_at(p.x(), p.y()).dot(border.inward));
+    }
+    if (!(inflow >= options_.entry_min_inflow_px)) continue;
+    const int width = static_cast<int>(std::ceil(options_.entry_band_tag_sizes * largest + inflow + options_.padding_px));
+    cv::Rect band;
+    switch (side) {
+      case 0: band = cv::Rect(0, 0, width, image.height); break;
+      case 1: band = cv::Rect(image.width - width, 0, width, image.height); break;
+      case 2: band = cv::Rect(0, 0, image.width, width); break;
+      default: band = cv::Rect(0, image.height - width, image.width, width); break;
+    }
+    band &= cv::Rect(0, 0, image.width, image.height);
+    if (band.area() > 0) searches->push_back(Search{band, true, {}});
+  }
+}
+
 Result<DetectionSet> TagTracker::Track(const cv::Mat& gray8, FrameId frame,
                                        const std::map<TagId, QuadCorners>& predicted) {
   ++stats_.frames;
@@ -133,25 +257,56 @@ Result<DetectionSet> TagTracker::Track(const cv::Mat& gray8, FrameId frame,
     const cv::Rect region = RegionOf(corners, options_, gray8.size());
     if (region.area() > 0) regions.push_back(region);
   }
-  DetectionSet result;
-  result.frame = frame;
-  for (const cv::Rect& region : MergeOverlapping(std::move(regions))) {
-    ++stats_.region_detections;
-    auto found = region_detector_->Detect(gray8(region), frame);  // a view: no copy
-    if (!found) return found.error();
-    const Eigen::Vector2d offset(region.x, region.y);
+  searches_.clear();
+  for (const cv::Rect& region : MergeOverlapping(std::move(regions))) searches_.push_back(Search{region, false, {}});
+  const size_t region_count = searches_.size();
+  if (options_.search_entry_bands) AddEntryBands(gray8.size(), &searches_);
+  stats_.region_detections += static_cast<int>(region_count);
+  stats_.band_detections += static_cast<int>(searches_.size() - region_count);
+
+  // Largest first, so that the threads finish together.
+  std::sort(searches_.begin(), searches_.end(),
+            [](const Search& a, const Search& b) { return a.area.area() > b.area.area(); });
+  std::vector<std::optional<Error>> errors(per_thread_.size());
+  workers_->Run(static_cast<int>(searches_.size()), [&](int i, int thread) {
+    Search& search = searches_[i];
+    TagDetector& detector = search.band ? *per_thread_[thread].band : *per_thread_[thread].region;
+    auto found = detector.Detect(gray8(search.area), frame);  // a view: no copy
+    if (!found) {
+      errors[thread] = found.error();
+      return;
+    }
+    const Eigen::Vector2d offset(search.area.x, search.area.y);
     for (TagDetection& tag : found->tags) {
       for (Eigen::Vector2d& c : tag.corners) c += offset;
-      result.tags.push_back(tag);
+    }
+    search.found = std::move(found->tags);
+  });
+  for (const auto& error : errors) {
+    if (error) return *error;
+  }
+
+  // Tracked regions first; from the bands only tags not found otherwise.
+  DetectionSet result;
+  result.frame = frame;
+  std::set<TagId> found_ids;
+  for (int pass = 0; pass < 2; ++pass) {
+    for (Search& search : searches_) {
+      if (search.band != (pass == 1)) continue;
+      for (TagDetection& tag : search.found) {
+        if (!found_ids.insert(tag.id).second) continue;
+        if (search.band) ++stats_.tags_found_in_bands;
+        result.tags.push_back(std::move(tag));
+      }
     }
   }
-  // A tag expected but not found: the prediction failed or the tag left the
-  // view. Only a full-frame detection tells which, so run one now.
-  std::set<TagId> found_ids;
-  for (const TagDetection& tag : result.tags) found_ids.insert(tag.id);
+  // A tag expected wholly in view but not found: the prediction failed (or
+  // the tag is hidden). Only a full-frame detection tells which, so run one
+  // now. A tag predicted across the border (its white quiet zone, about an
+  // eighth of its extent, included) has left the view: no search.
   bool lost = false;
   for (const auto& [id, corners] : expected) {
-    if (!found_ids.count(id) && RegionOf(corners, options_, gray8.size()).area() > 0) lost = true;
+    if (!found_ids.count(id) && WhollyInside(corners, gray8.size(), 1.0 + ExtentOf(corners) / 8.0)) lost = true;
   }
   if (lost) {
     ++stats_.recoveries;
@@ -159,6 +314,7 @@ Result<DetectionSet> TagTracker::Track(const cv::Mat& gray8, FrameId frame,
     if (detections) Update(*detections);
     return detections;
   }
+  full_detector_->RefineDetections(gray8, &result.tags);
   std::sort(result.tags.begin(), result.tags.end(),
             [](const TagDetection& a, const TagDetection& b) { return a.id < b.id; });
   Update(result);

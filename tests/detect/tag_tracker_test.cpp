@@ -60,8 +60,8 @@ TEST(TagTrackerSlow, SameRecallAndAccuracyAsFullFrame) {
     ASSERT_TRUE(by_full.has_value());
     ASSERT_TRUE(by_tracker.has_value());
     const std::set<TagId> full_ids = Ids(*by_full), tracked_ids = Ids(*by_tracker);
-    // A tag the tracker knew is never lost; a tag new to it (entering the
-    // view) waits for the next full-frame pass, at most 10 frames.
+    // A tag the tracker knew is never lost; a tag entering the view is found
+    // by the entry bands on the frame a full-frame detection finds it.
     for (TagId id : full_ids) {
       if (tracked_ids.count(id)) continue;
       EXPECT_FALSE(ever_tracked.count(id)) << "frame " << f << ": tag " << id << " lost";
@@ -77,7 +77,8 @@ TEST(TagTrackerSlow, SameRecallAndAccuracyAsFullFrame) {
               full_stats.Summary().c_str(), tracked_stats.Summary().c_str(), stats.frames,
               stats.full_frame_detections, stats.recoveries, stats.region_detections, late);
   EXPECT_EQ(tracked_stats.wrong_ids, 0);
-  EXPECT_GE(tracked_stats.found_tags + late, full_stats.found_tags);
+  EXPECT_EQ(late, 0);  // measured 0 (without the entry bands 33 of 728 in detect_bench)
+  EXPECT_GE(tracked_stats.found_tags, full_stats.found_tags);
   // No loss of accuracy: the same refinement on the same pixels (a region
   // holds the whole band the edge fit uses).
   EXPECT_LE(tracked_stats.Median(), full_stats.Median() + 0.005);

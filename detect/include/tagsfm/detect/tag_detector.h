@@ -4,6 +4,7 @@
 // detection work fills in the implementation and may add options.)
 #include <memory>
 #include <string>
+#include <vector>
 
 #include <opencv2/core.hpp>
 
@@ -48,6 +49,11 @@ class TagDetector {
   // larger one (any row stride): it is read in place, not copied. Tags come
   // sorted by id. Not safe to call from two threads at once.
   virtual Result<DetectionSet> Detect(const cv::Mat& gray8, FrameId frame) = 0;
+
+  // Refines the corners of `tags` (found in `gray8`, e.g. by a detector with
+  // refinement kNone on parts of it) with this detector's refinement, on its
+  // threads. A tag whose refinement fails keeps its corners.
+  virtual void RefineDetections(const cv::Mat& gray8, std::vector<TagDetection>* tags) = 0;
 
   // Modules across the tag's outer (corner-defining) square, e.g. 8 for
   // tag36h11: corner spacing / this = module size in pixels.

@@ -5,12 +5,21 @@
 // velocity per corner) or taken from the caller (recon passes the map's
 // reprojection from its pose estimate); libapriltag then runs only in padded
 // regions around the predictions, and the detections are shifted back into
-// the frame. A full-frame detection runs every `full_frame_every` frames, so
-// that new tags appear, and at once on a frame where a predicted tag is not
-// found in its region, so that a tag is never lost to a bad prediction.
+// the frame. New tags: on every frame, bands along the image borders across
+// which the image content flows in (the flow fitted to the tracked tags'
+// last motion) are searched at the full-frame decimation, so that a tag
+// entering the view is found on the first frame it is wholly inside, as a
+// full-frame detection would find it; only tags not tracked already are kept
+// from the bands. A full-frame detection runs every `full_frame_every` frames
+// (tags appearing inside the view, e.g. from behind an occluder), and at once
+// on a frame where a predicted tag that should be wholly in view is not found
+// in its region, so that a tag is never lost to a bad prediction. Regions and
+// bands are searched in parallel on the detector's threads and all tags are
+// refined in parallel.
 #include <map>
 #include <memory>
 #include <optional>
+#include <vector>
 
 #include <opencv2/core.hpp>
 
@@ -19,6 +28,9 @@
 #include "tagsfm/detect/tag_detector.h"
 
 namespace tagsfm {
+namespace detail {
+class DetectionWorkers;
+}
 
 struct TagTrackerOptions {
   int full_frame_every = 15;          // frames between full-frame detections (>= 1)
@@ -27,6 +39,16 @@ struct TagTrackerOptions {
   // Regions are searched at this decimation (1: full resolution, which also
   // finds small tags the full-frame pass at quad_decimate 2 misses).
   float region_quad_decimate = 1.0f;
+  // Entry bands for new tags (see above). A band's width is
+  // entry_band_tag_sizes times the largest tracked tag's extent plus the
+  // inflow per frame and padding_px: a tag that has just come wholly into
+  // view lies in it, unless it is much larger than every tag in view.
+  bool search_entry_bands = true;
+  double entry_band_tag_sizes = 1.5;
+  // A border gets a band where the content flows in by at least this much
+  // per frame somewhere along it; slower borders (and a still camera) are
+  // left to the full-frame passes, which a tag takes many frames to escape.
+  double entry_min_inflow_px = 0.5;
   Status Check() const;
 };
 
@@ -35,12 +57,17 @@ struct TagTrackerStats {
   int full_frame_detections = 0;   // scheduled, first frame, or after a loss
   int recoveries = 0;              // full-frame detections caused by a lost tag
   int region_detections = 0;       // libapriltag runs on regions
+  int band_detections = 0;         // libapriltag runs on entry bands
+  int tags_found_in_bands = 0;     // new tags the entry bands found
 };
 
 class TagTracker {
  public:
-  // `detector` is used for the full-frame passes (its decimation, threads);
-  // regions use the same options with region_quad_decimate and one thread.
+  // `detector` is used for the full-frame passes (its decimation, threads)
+  // and the refinement; regions use the same options with
+  // region_quad_decimate, entry bands the detector's decimation, each run on
+  // one of the detector's threads.
+  ~TagTracker();
   static Result<std::unique_ptr<TagTracker>> Create(const TagDetectorOptions& detector,
                                                     const TagTrackerOptions& tracker);
 
@@ -63,14 +90,28 @@ class TagTracker {
     FrameId previous_frame = 0;
   };
 
-  TagTracker(TagTrackerOptions options, std::unique_ptr<TagDetector> full, std::unique_ptr<TagDetector> region);
+  // Per thread: libapriltag detectors are not reentrant.
+  struct ThreadDetectors {
+    std::unique_ptr<TagDetector> region;
+    std::unique_ptr<TagDetector> band;
+  };
+  struct Search {
+    cv::Rect area;
+    bool band = false;
+    std::vector<TagDetection> found;  // frame coordinates, unrefined
+  };
+
+  TagTracker(TagTrackerOptions options, std::unique_ptr<TagDetector> full, std::vector<ThreadDetectors> per_thread);
   std::map<TagId, QuadCorners> Predict(FrameId frame, const std::map<TagId, QuadCorners>& predicted) const;
+  void AddEntryBands(const cv::Size& image, std::vector<Search>* searches) const;
   Result<DetectionSet> DetectFullFrame(const cv::Mat& gray8, FrameId frame);
   void Update(const DetectionSet& detections);
 
   TagTrackerOptions options_;
   std::unique_ptr<TagDetector> full_detector_;
-  std::unique_ptr<TagDetector> region_detector_;
+  std::vector<ThreadDetectors> per_thread_;
+  std::unique_ptr<detail::DetectionWorkers> workers_;
+  std::vector<Search> searches_;  // reused from frame to frame
   std::map<TagId, TagTrack> tracks_;
   int frames_since_full_ = 0;
   bool have_full_ = false;
