@@ -61,12 +61,7 @@ Result<Measurement> MeasureWithFeatures(const std::filesystem::path& dir, const 
     }
     auto it = targets->find(ref->tag);
     if (it == targets->end()) return MakeError((dir / "targets.csv").string() + ": no target " + std::to_string(ref->tag));
-    if (ref->corner >= 0) {
-      *position = it->second[static_cast<size_t>(ref->corner)];
-    } else {
-      *position = Eigen::Vector3d::Zero();
-      for (const Eigen::Vector3d& corner : it->second) *position += corner / 4.0;
-    }
+    *position = ref->PointOn(it->second);
     covariance->setZero();
     return Status::Ok();
   };

@@ -14,11 +14,11 @@ Eigen::Matrix3d Skew(const Eigen::Vector3d& v) {
   return m;
 }
 
-Eigen::Vector3d PointOf(const TagCorners& corners, int corner) {
-  return corner < 0 ? TagCenter(corners) : corners[static_cast<size_t>(corner)];
-}
-
 }  // namespace
+
+Eigen::Vector3d TargetPointRef::PointOn(const TagCorners& corners) const {
+  return this->corner < 0 ? TagCenter(corners) : corners[static_cast<size_t>(this->corner)];
+}
 
 std::string TargetPointRef::ToString() const {
   return corner < 0 ? "tag " + std::to_string(tag) : "tag " + std::to_string(tag) + " corner " + std::to_string(corner);
@@ -43,8 +43,8 @@ Result<Measurement> MeasureDistance(const TargetCornerMap& targets, const std::o
   if (ia == targets.end()) return MakeError("tag " + std::to_string(a.tag) + " is not in the result's targets");
   if (ib == targets.end()) return MakeError("tag " + std::to_string(b.tag) + " is not in the result's targets");
   Measurement m;
-  m.a = PointOf(ia->second, a.corner);
-  m.b = PointOf(ib->second, b.corner);
+  m.a = a.PointOn(ia->second);
+  m.b = b.PointOn(ib->second);
   const Eigen::Vector3d diff = m.a - m.b;
   m.distance_m = diff.norm();
   if (!covariance) {

@@ -17,6 +17,8 @@ struct TargetPointRef {
   TagId tag = -1;
   int corner = -1;  // -1: the centre
   std::string ToString() const;
+  // The point on the tag with these corners: the corner, or their centre.
+  Eigen::Vector3d PointOn(const TagCorners& corners) const;
 };
 Result<TargetPointRef> ParseTargetPointRef(const std::string& text);
 
