@@ -9,7 +9,6 @@
 #include <filesystem>
 #include <optional>
 #include <string>
-#include <thread>
 
 #include <spdlog/spdlog.h>
 
@@ -17,6 +16,7 @@
 #include "feature_pipeline.h"
 #include "replay_support.h"
 #include "tagsfm/capture/recording.h"
+#include "tagsfm/capture/timestamp_pacer.h"
 #include "tagsfm/dashboard/dashboard_server.h"
 #include "tagsfm/feedback/live_feedback.h"
 #include "tagsfm/recon/camera_calibration.h"
@@ -34,33 +34,6 @@ struct ReplayArgs {
   bool no_targets = false;
   bool realtime = false;
   std::string dashboard = "127.0.0.1:8080";
-};
-
-// Holds each frame back until its timestamp (relative to the first frame's)
-// has come, on the wall clock. A frame whose time has passed goes at once:
-// a replay never drops frames; it counts how many came late.
-class FramePacer {
- public:
-  void WaitFor(std::int64_t timestamp_ns) {
-    const auto now = std::chrono::steady_clock::now();
-    if (!first_timestamp_ns_) {
-      first_timestamp_ns_ = timestamp_ns;
-      start_ = now;
-      return;
-    }
-    const auto due = start_ + std::chrono::nanoseconds(timestamp_ns - *first_timestamp_ns_);
-    if (due > now) {
-      std::this_thread::sleep_until(due);
-    } else if (now - due > std::chrono::milliseconds(100)) {
-      ++late_frames_;
-    }
-  }
-  int late_frames() const { return late_frames_; }
-
- private:
-  std::optional<std::int64_t> first_timestamp_ns_;
-  std::chrono::steady_clock::time_point start_;
-  int late_frames_ = 0;
 };
 
 double MsSince(std::chrono::steady_clock::time_point start) {
@@ -209,7 +182,7 @@ int RunReplay(const ReplayArgs& args) {
   // Realtime: the dashboard and the live feedback, as `run` has them.
   std::unique_ptr<DashboardServer> dashboard;
   std::optional<LiveFeedback> feedback;
-  FramePacer pacer;
+  TimestampPacer pacer;
   if (args.realtime) {
     auto server = DashboardServer::Start(args.dashboard);
     if (!server) {

@@ -1,8 +1,7 @@
 // file:REC[?rate=max] — a recording played back as if it were a camera.
-#include <chrono>
-#include <thread>
 
 #include "tagsfm/capture/frame_source.h"
+#include "tagsfm/capture/timestamp_pacer.h"
 
 namespace tagsfm {
 namespace {
@@ -15,7 +14,7 @@ class FileFrameSource : public FrameSource {
   Result<std::optional<Frame>> Next() override {
     if (next_ >= reader_.entries().size()) return std::optional<Frame>();
     const FrameEntry& entry = reader_.entries()[next_];
-    if (!fast_) WaitForTimestamp(entry.timestamp_ns);
+    if (!fast_) pacer_.WaitFor(entry.timestamp_ns);
     auto frame = reader_.LoadFrame(next_++);
     if (!frame) return frame.error();
     return std::optional<Frame>(std::move(*frame));
@@ -24,26 +23,11 @@ class FileFrameSource : public FrameSource {
   std::string uri() const override { return uri_; }
 
  private:
-  // Paces playback at the recording's own timestamps, relative to its first.
-  void WaitForTimestamp(std::int64_t timestamp_ns) {
-    const auto now = std::chrono::steady_clock::now();
-    if (!started_) {
-      started_ = true;
-      start_wall_ = now;
-      start_stamp_ns_ = timestamp_ns;
-      return;
-    }
-    const auto due = start_wall_ + std::chrono::nanoseconds(timestamp_ns - start_stamp_ns_);
-    if (due > now) std::this_thread::sleep_until(due);
-  }
-
   RecordingReader reader_;
   bool fast_;
   std::string uri_;
   size_t next_ = 0;
-  bool started_ = false;
-  std::chrono::steady_clock::time_point start_wall_;
-  std::int64_t start_stamp_ns_ = 0;
+  TimestampPacer pacer_;  // plays at the recording's own timestamps
 };
 
 }  // namespace
