@@ -119,16 +119,27 @@ Result<SceneRenderer> SceneRenderer::Create(const CameraModel& camera, const Sce
   return renderer;
 }
 
-cv::Mat1f SceneRenderer::Render(const Rigid3d& cam_from_world) const {
-  cv::Mat1f out(camera_.height, camera_.width);
+cv::Mat1f SceneRenderer::Render(const Rigid3d& cam_from_world, double blur_px) const {
+  const bool per_sample = blur_px > 0.0;
+  const int scale = per_sample ? samples_ : 1;
+  cv::Mat1f out(camera_.height * scale, camera_.width * scale);
   std::vector<std::thread> workers;
-  for (int t = 1; t < threads_; ++t) workers.emplace_back([&, t] { RenderRows(cam_from_world, t, threads_, &out); });
-  RenderRows(cam_from_world, 0, threads_, &out);
+  for (int t = 1; t < threads_; ++t) {
+    workers.emplace_back([&, t] { RenderRows(cam_from_world, t, threads_, per_sample, &out); });
+  }
+  RenderRows(cam_from_world, 0, threads_, per_sample, &out);
   for (std::thread& w : workers) w.join();
-  return out;
+  if (!per_sample) return out;
+  // The lens blurs the radiance on the sample grid; the pixels then average
+  // their samples (INTER_AREA at an integer factor is that block mean).
+  cv::GaussianBlur(out, out, cv::Size(), blur_px * scale, blur_px * scale, cv::BORDER_REFLECT);
+  cv::Mat1f pixels;
+  cv::resize(out, pixels, cv::Size(camera_.width, camera_.height), 0, 0, cv::INTER_AREA);
+  return pixels;
 }
 
-void SceneRenderer::RenderRows(const Rigid3d& cam_from_world, int first_row, int row_step, cv::Mat1f* out) const {
+void SceneRenderer::RenderRows(const Rigid3d& cam_from_world, int first_row, int row_step, bool per_sample,
+                               cv::Mat1f* out) const {
   const Eigen::Matrix3d rotation = cam_from_world.RotationMatrix();
   std::vector<FaceInCamera> faces;
   std::vector<int> face_index;
@@ -154,7 +165,6 @@ void SceneRenderer::RenderRows(const Rigid3d& cam_from_world, int first_row, int
   const double inv_samples = 1.0 / samples_;
   const double weight = 1.0 / (samples_ * samples_);
   for (int row = first_row; row < camera_.height; row += row_step) {
-    float* out_row = out->ptr<float>(row);
     for (int col = 0; col < width; ++col) {
       const Eigen::Vector2d& c00 = corner_rays_[static_cast<size_t>(row * stride + col)];
       const Eigen::Vector2d& c10 = corner_rays_[static_cast<size_t>(row * stride + col + 1)];
@@ -189,27 +199,25 @@ void SceneRenderer::RenderRows(const Rigid3d& cam_from_world, int first_row, int
             best_a = a;
             best_b = b;
           }
-          if (best_face < 0) {
-            sum += scene_->background;
-          } else {
+          double value = scene_->background;
+          if (best_face >= 0) {
             const FaceShading& s = shading[static_cast<size_t>(best_face)];
-            sum += s.face->shade * Albedo(s, best_a, best_b);
+            value = s.face->shade * Albedo(s, best_a, best_b);
+          }
+          if (per_sample) {
+            out->at<float>(row * samples_ + sy, col * samples_ + sx) = static_cast<float>(value);
+          } else {
+            sum += value;
           }
         }
       }
-      out_row[col] = static_cast<float>(sum * weight);
+      if (!per_sample) out->at<float>(row, col) = static_cast<float>(sum * weight);
     }
   }
 }
 
-cv::Mat ApplySensorModel(const cv::Mat1f& radiance, const SensorOptions& options, std::uint64_t noise_seed) {
-  cv::Mat1f signal;
-  if (options.blur > 0) {
-    cv::GaussianBlur(radiance, signal, cv::Size(), options.blur, options.blur, cv::BORDER_REFLECT);
-  } else {
-    signal = radiance.clone();
-  }
-  signal *= 255.0 * options.brightness;
+cv::Mat ApplySensorModel(const cv::Mat1f& light, const SensorOptions& options, std::uint64_t noise_seed) {
+  cv::Mat1f signal = light * (255.0 * options.brightness);
   if (options.noise > 0) {
     cv::Mat1f noise(signal.size());
     cv::RNG rng(noise_seed);

@@ -100,7 +100,7 @@ Result<SynthSummary> WriteSyntheticRecording(const SynthOptions& options, const 
 
   Result<SceneRenderer> renderer = SceneRenderer::Create(*info.camera, &*scene, options.samples, options.threads);
   if (!renderer) return renderer.error();
-  const SensorOptions sensor{options.blur, options.brightness, options.noise};
+  const SensorOptions sensor{options.brightness, options.noise};
   SynthSummary summary;
   summary.targets = static_cast<int>(scene->tags.size());
   for (size_t i = 0; i < path->cam_from_world.size(); ++i) {
@@ -108,7 +108,7 @@ Result<SynthSummary> WriteSyntheticRecording(const SynthOptions& options, const 
     Frame frame;
     frame.index = static_cast<FrameId>(i);
     frame.timestamp_ns = path->timestamps_ns[i];
-    frame.image = ApplySensorModel(renderer->Render(path->cam_from_world[i]), sensor, NoiseSeed(options.seed, i));
+    frame.image = ApplySensorModel(renderer->Render(path->cam_from_world[i], options.blur), sensor, NoiseSeed(options.seed, i));
     summary.render_seconds += SecondsSince(frame_start);
     if (Status s = (*writer)->Append(frame); !s) return s.error();
     ++summary.frames;

@@ -61,7 +61,7 @@ void ExpectCloseUpCornersExact(const std::vector<double>& distortion) {
   const Eigen::Vector3d eyes[] = {{0.02, -0.38, 0.01}, {0.25, -0.3, 0.05}, {-0.1, -0.3, 0.22}};
   for (const Eigen::Vector3d& eye : eyes) {
     const Rigid3d cam_from_world = LookAt(eye, Eigen::Vector3d(0.01, 0, -0.01), 0.2);
-    const cv::Mat gray = ApplySensorModel(renderer->Render(cam_from_world), {0.0, 1.0, 0.0}, 1);
+    const cv::Mat gray = ApplySensorModel(renderer->Render(cam_from_world), {1.0, 0.0}, 1);
     const auto measured =
         MeasureTagCorners(gray, camera, cam_from_world, TagCornersInWorld(scene, scene.tags[0]), scene.tags[0].pattern);
     ASSERT_TRUE(measured) << "tag not measurable from eye " << eye.transpose();

@@ -125,7 +125,7 @@ TEST(CornerOrder, MatchesLibapriltagsDetector) {
   detector->quad_decimate = 1;
   int checked = 0;
   for (const Rigid3d& cam_from_world : path.cam_from_world) {
-    cv::Mat gray = ApplySensorModel(renderer->Render(cam_from_world), {0.0, 1.0, 0.0}, 1);
+    cv::Mat gray = ApplySensorModel(renderer->Render(cam_from_world), {1.0, 0.0}, 1);
     image_u8_t image{gray.cols, gray.rows, static_cast<int32_t>(gray.step), gray.data};
     zarray_t* detections = apriltag_detector_detect(detector, &image);
     for (int k = 0; k < zarray_size(detections); ++k) {

@@ -1,6 +1,7 @@
 #pragma once
-// Ray-casting a Scene through a CameraModel, with box-filter antialiasing,
-// then the sensor: blur, brightness, noise, 8-bit quantisation.
+// Ray-casting a Scene through a CameraModel: the lens blur, then each
+// pixel's square footprint (box filter); then the sensor: brightness, noise,
+// 8-bit quantisation.
 #include <cstdint>
 #include <vector>
 
@@ -20,13 +21,22 @@ class SceneRenderer {
   // sub-pixel samples average over each pixel's square footprint.
   static Result<SceneRenderer> Create(const CameraModel& camera, const Scene* scene, int samples, int threads);
 
-  // Scene radiance (albedo x face shade), one float per pixel, in [0, 1].
-  cv::Mat1f Render(const Rigid3d& cam_from_world) const;
+  // The light each pixel collects, in [0, 1] (albedo x face shade): the
+  // scene's radiance blurred by the lens (a Gaussian point-spread function of
+  // std `blur_px` pixels), then integrated over the pixel's square, in that
+  // order, as in a camera. Blurring the integrated pixels instead is not an
+  // optics blur below ~1 px (OpenCV's sampled kernel at sigma 0.5 is
+  // [0.11, 0.79, 0.11]) and moved rendered tag corners ~0.002 px inward
+  // (docs/detection.md, docs/synth.md).
+  cv::Mat1f Render(const Rigid3d& cam_from_world, double blur_px = 0.0) const;
 
   const CameraModel& camera() const { return camera_; }
 
  private:
-  void RenderRows(const Rigid3d& cam_from_world, int first_row, int row_step, cv::Mat1f* out) const;
+  // Rows first_row, first_row + row_step, ... of the image; with
+  // `per_sample` each sample's value goes to its own cell of a
+  // samples-times-finer `out`, else each pixel gets the mean of its samples.
+  void RenderRows(const Rigid3d& cam_from_world, int first_row, int row_step, bool per_sample, cv::Mat1f* out) const;
 
   CameraModel camera_;
   const Scene* scene_ = nullptr;
@@ -38,12 +48,11 @@ class SceneRenderer {
 };
 
 struct SensorOptions {
-  double blur = 0.7;        // Gaussian std, pixels
-  double brightness = 1.0;  // multiplies the radiance
+  double brightness = 1.0;  // multiplies the collected light
   double noise = 2.0;       // Gaussian std, grey levels
 };
 
-// radiance in [0, 1] -> 8-bit grey: blur, x brightness x 255, + noise, round, clip.
+// collected light in [0, 1] -> 8-bit grey: x brightness x 255, + noise, round, clip.
 cv::Mat ApplySensorModel(const cv::Mat1f& radiance, const SensorOptions& options, std::uint64_t noise_seed);
 
 }  // namespace tagsfm::synth
