@@ -229,7 +229,9 @@ bool FitEdgeModel(const EdgeModel& model, double half_length, int max_iterations
     const Eigen::Vector2d normal(std::cos(params->theta), std::sin(params->theta));
     for (const BandPixel& p : band) {
       const double r = model.Evaluate(p, *params, normal, &j) - p.value;
-      normal_matrix.selfadjointView<Eigen::Lower>().rankUpdate(j);
+      // A fixed-size outer product: Eigen's rankUpdate went through its
+      // generic (not inlined) product kernel, a quarter of the fit's time.
+      normal_matrix.noalias() += j * j.transpose();
       gradient += j * r;
       cost += r * r;
     }
@@ -239,7 +241,6 @@ bool FitEdgeModel(const EdgeModel& model, double half_length, int max_iterations
       *params = previous;
       step = 0.5 * last_step;
     } else {
-      normal_matrix = normal_matrix.selfadjointView<Eigen::Lower>();
       normal_matrix.diagonal() *= 1.0 + 1e-6;
       step = normal_matrix.ldlt().solve(-gradient);
       if (!step.allFinite()) return false;
@@ -334,8 +335,10 @@ class LocalUndistortion {
 // The pixels of edge i's band: from 0.8 module outside the edge to 1.5
 // modules inside (the border and half the row behind it), clear of the
 // corners. Geometry in undistorted pixels when `undistortion` is given.
+// `half`: only the pixels of one checkerboard colour (x + y even), for the
+// first pass, whose result only places the second pass's band.
 std::vector<BandPixel> CollectBand(const cv::Mat& image, const Eigen::Matrix3d& image_from_square, int n, int i,
-                                   double end_margin_modules, const LocalUndistortion* undistortion,
+                                   double end_margin_modules, const LocalUndistortion* undistortion, bool half,
                                    Eigen::Vector2d* band_origin) {
   const Eigen::Matrix3d square_from_image = image_from_square.inverse();
   const QuadCorners square = CornerSquareCorners(n);
@@ -400,7 +403,8 @@ std::vector<BandPixel> CollectBand(const cv::Mat& image, const Eigen::Matrix3d& 
     const int x0 = std::max(0, static_cast<int>(std::floor(x_low - pad)));
     const int x1 = std::min(image.cols - 1, static_cast<int>(std::ceil(x_high + pad)));
     const uchar* row = image.ptr<uchar>(y);
-    for (int x = x0; x <= x1; ++x) {
+    const int step = half ? 2 : 1;
+    for (int x = half ? x0 + ((x0 + y) & 1) : x0; x <= x1; x += step) {
       const Eigen::Vector2d pixel = undistortion != nullptr ? (*undistortion)(Eigen::Vector2d(x, y)) : Eigen::Vector2d(x, y);
       const double w = h(2, 0) * pixel.x() + h(2, 1) * pixel.y() + h(2, 2);
       const Eigen::Vector2d q((h(0, 0) * pixel.x() + h(0, 1) * pixel.y() + h(0, 2)) / w,
@@ -480,9 +484,13 @@ void StartLevels(const std::vector<BandPixel>& band, EdgeParams* params) {
   std::vector<double> values;
   values.reserve(band.size());
   for (const BandPixel& p : band) values.push_back(p.value);
-  std::sort(values.begin(), values.end());
-  const double low = values[values.size() / 10];
-  const double high = values[values.size() * 9 / 10];
+  // Two selections, not a sort (which was 5 % of the fit).
+  const auto low_it = values.begin() + static_cast<long>(values.size() / 10);
+  const auto high_it = values.begin() + static_cast<long>(values.size() * 9 / 10);
+  std::nth_element(values.begin(), high_it, values.end());
+  std::nth_element(values.begin(), low_it, high_it);
+  const double low = *low_it;
+  const double high = *high_it;
   // Which of the two is the border's is decided by the mean value outside.
   double outside_sum = 0.0;
   int outside_count = 0;
@@ -543,15 +551,23 @@ bool RefineCornersByEdgeLines(const cv::Mat& gray8, const TagLayout& layout, Qua
     if (normal.dot(0.5 * (from + to) - center) < 0.0) normal = -normal;
     lines[i] = {normal, normal.dot(from)};
   }
-  // A second pass re-samples the band and re-places the row behind the
-  // border from the first pass's corners, when those moved noticeably.
+  // The first pass only needs to come close: it fits half the band's
+  // pixels (a checkerboard) and stops at 0.01 px steps (it converges in ~2
+  // steps from libapriltag's corners; measured, ~40 % of the fit's time
+  // saved). The second pass re-samples the whole band and re-places the row
+  // behind the border from the first pass's corners, and always runs: its
+  // minimum, on every pixel, is the answer.
   for (int pass = 0; pass < 2; ++pass) {
+    const bool coarse = pass == 0;
     const std::optional<Eigen::Matrix3d> image_from_square = HomographyFrom4(CornerSquareCorners(n), current);
     if (!image_from_square) return false;
     for (int i = 0; i < 4; ++i) {
       Eigen::Vector2d origin = Eigen::Vector2d::Zero();
       std::vector<BandPixel> band =
-          CollectBand(gray8, *image_from_square, n, i, end_margin_modules, pixel_map, &origin);
+          CollectBand(gray8, *image_from_square, n, i, end_margin_modules, pixel_map, coarse, &origin);
+      if (coarse && band.size() < 24) {  // a tiny tag: half its band is too few pixels
+        band = CollectBand(gray8, *image_from_square, n, i, end_margin_modules, pixel_map, false, &origin);
+      }
       if (band.size() < 12) return false;
       EdgeParams& e = params[i];
       e.theta = std::atan2(lines[i].normal.y(), lines[i].normal.x());
@@ -564,22 +580,17 @@ bool RefineCornersByEdgeLines(const cv::Mat& gray8, const TagLayout& layout, Qua
       if (pass == 0) StartLevels(band, &e);
       const double half_length = 0.5 * (current[(i + 1) % 4] - current[i]).norm();
       // The second pass starts at the first's minimum: a few steps suffice.
-      // The second pass starts at the first's minimum: a few steps suffice.
-      // (A looser stop, 1e-3 px, saved no measurable time.)
-      const int max_iterations = pass == 0 ? 5 : 3;
-      if (!FitEdgeModel(EdgeModel(RowsBehindEdge(layout, i)), half_length, max_iterations, 1e-4, &band, &e)) {
+      const int max_iterations = coarse ? 5 : 3;
+      const double stop_px = coarse ? 0.01 : 1e-4;
+      if (!FitEdgeModel(EdgeModel(RowsBehindEdge(layout, i)), half_length, max_iterations, stop_px, &band, &e)) {
         return false;
       }
       lines[i].normal = Eigen::Vector2d(std::cos(e.theta), std::sin(e.theta));
       lines[i].offset = e.rho + lines[i].normal.dot(origin);
     }
-    const QuadCorners before = current;
     for (int i = 0; i < 4; ++i) {
       if (!Intersect(lines[(i + 3) % 4], lines[i], &current[i])) return false;
     }
-    double moved = 0.0;
-    for (int i = 0; i < 4; ++i) moved = std::max(moved, (current[i] - before[i]).norm());
-    if (moved < 0.05) break;
   }
   // A refinement that moves a corner by more than half a module has locked
   // onto something else; the start is then the better answer.
