@@ -8,7 +8,11 @@
 // process, robust to other load on the machine) and its speed-up over both
 // libapriltag baselines in each.
 //
-//   build/bench/detect_bench [frames]   (default 40 frames per resolution)
+//   build/bench/detect_bench [frames] [only]
+//
+// frames: per resolution (default 40). only: run just the methods whose
+// name contains this string, plus the libapriltag decimate 2 x 2 threads
+// baseline (for profiling one method, e.g. "tagsfm_tracking").
 #include <apriltag/apriltag.h>
 #include <apriltag/tag36h11.h>
 
@@ -128,6 +132,10 @@ nlohmann::json ToJson(const MethodResult& r) {
 
 int main(int argc, char** argv) {
   const int frames = argc > 1 ? std::max(2, std::atoi(argv[1])) : 40;
+  const std::string only = argc > 2 ? argv[2] : "";
+  const auto wanted = [&](const std::string& name) {
+    return name == "libapriltag_decimate2_threads2" || name.find(only) != std::string::npos;
+  };
   nlohmann::json out;
   out["frames_per_resolution"] = frames;
   out["scene"] = "VideoTagPlacements: 20 tag36h11 tags, side 0.05*height, tilt <= 50 deg, panning 0.4% of width "
@@ -136,84 +144,98 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "rendering %dx%d...\n", width, height);
     const Sequence s = MakeSequence(width, height, frames);
     std::map<std::string, MethodResult> results;
+    const auto Measure = [&](const std::string& name,
+                             const std::function<std::vector<int>(const cv::Mat&, int)>& detect) {
+      if (wanted(name)) results[name] = Run(s, detect);
+    };
 
     auto detector = *tagsfm::TagDetector::Create(tagsfm::TagDetectorOptions{});
-    results["tagsfm_full_frame"] = Run(s, [&](const cv::Mat& gray, int f) {
+    Measure("tagsfm_full_frame", [&](const cv::Mat& gray, int f) {
       const tagsfm::Result<tagsfm::DetectionSet> found = detector->Detect(gray, f);
       return found ? Ids(*found) : std::vector<int>{};
     });
     tagsfm::TagDetectorOptions unrefined;
     unrefined.refinement = tagsfm::CornerRefinement::kNone;
     auto unrefined_detector = *tagsfm::TagDetector::Create(unrefined);
-    results["tagsfm_full_frame_without_refinement"] = Run(s, [&](const cv::Mat& gray, int f) {
+    Measure("tagsfm_full_frame_without_refinement", [&](const cv::Mat& gray, int f) {
       const tagsfm::Result<tagsfm::DetectionSet> found = unrefined_detector->Detect(gray, f);
       return found ? Ids(*found) : std::vector<int>{};
     });
     auto tracker = *tagsfm::TagTracker::Create(tagsfm::TagDetectorOptions{}, tagsfm::TagTrackerOptions{});
-    results["tagsfm_tracking"] = Run(s, [&](const cv::Mat& gray, int f) {
+    Measure("tagsfm_tracking", [&](const cv::Mat& gray, int f) {
       const tagsfm::Result<tagsfm::DetectionSet> found = tracker->Track(gray, f);
       return found ? Ids(*found) : std::vector<int>{};
     });
     tagsfm::TagTrackerOptions no_bands;
     no_bands.search_entry_bands = false;
     auto tracker_no_bands = *tagsfm::TagTracker::Create(tagsfm::TagDetectorOptions{}, no_bands);
-    results["tagsfm_tracking_without_entry_bands"] = Run(s, [&](const cv::Mat& gray, int f) {
+    Measure("tagsfm_tracking_without_entry_bands", [&](const cv::Mat& gray, int f) {
       const tagsfm::Result<tagsfm::DetectionSet> found = tracker_no_bands->Track(gray, f);
       return found ? Ids(*found) : std::vector<int>{};
     });
     auto plain_tracker = *tagsfm::TagTracker::Create(unrefined, tagsfm::TagTrackerOptions{});
-    results["tagsfm_tracking_without_refinement"] = Run(s, [&](const cv::Mat& gray, int f) {
+    Measure("tagsfm_tracking_without_refinement", [&](const cv::Mat& gray, int f) {
       const tagsfm::Result<tagsfm::DetectionSet> found = plain_tracker->Track(gray, f);
       return found ? Ids(*found) : std::vector<int>{};
     });
     std::shared_ptr<void> keep_defaults, keep_d2t2;
-    results["libapriltag_defaults"] = Run(s, PlainAprilTag(0, 0.0f, &keep_defaults));
-    results["libapriltag_decimate2_threads2"] = Run(s, PlainAprilTag(2, 2.0f, &keep_d2t2));
+    Measure("libapriltag_defaults", PlainAprilTag(0, 0.0f, &keep_defaults));
+    Measure("libapriltag_decimate2_threads2", PlainAprilTag(2, 2.0f, &keep_d2t2));
 
     const cv::Ptr<cv::aruco::Dictionary> dictionary = cv::aruco::getPredefinedDictionary(cv::aruco::DICT_APRILTAG_36h11);
     const cv::Ptr<cv::aruco::DetectorParameters> parameters = cv::aruco::DetectorParameters::create();
-    results["opencv_aruco_apriltag36h11"] = Run(s, [&](const cv::Mat& gray, int) {
+    Measure("opencv_aruco_apriltag36h11", [&](const cv::Mat& gray, int) {
       std::vector<std::vector<cv::Point2f>> corners;
       std::vector<int> ids;
       cv::aruco::detectMarkers(gray, dictionary, corners, ids, parameters);
       return ids;
     });
 
-    // The edge-line fit alone, per tag, from corners 0.3 px off the truth.
+    // The edge-line fit alone, per tag, from corners 0.3 px off the truth
+    // (CPU time: it runs on this one thread).
     int refined = 0;
-    const auto fit_start = Clock::now();
-    for (size_t f = 0; f < s.frames.size(); ++f) {
+    const std::clock_t fit_start = std::clock();
+    for (size_t f = 0; f < s.frames.size() && wanted("edge_line_fit"); ++f) {
       for (const PlacedTag& tag : s.truth[f]) {
         tagsfm::QuadCorners corners = tag.corners;
         for (auto& c : corners) c += Eigen::Vector2d(0.3, -0.2);
         refined += tagsfm::RefineCornersByEdgeLines(s.frames[f], *tagsfm::MakeTagLayout("tag36h11", tag.id), &corners);
       }
     }
-    const double fit_ms = 1000.0 * std::chrono::duration<double>(Clock::now() - fit_start).count();
+    const double fit_ms = 1000.0 * static_cast<double>(std::clock() - fit_start) / CLOCKS_PER_SEC;
 
     nlohmann::json res;
     res["edge_line_fit_ms_per_tag"] = refined > 0 ? fit_ms / refined : 0.0;
     // Speed-ups over the two libapriltag baselines (baseline ms / method ms;
     // > 1: the method is faster), in wall time and in CPU time of all threads.
-    const MethodResult& defaults = results["libapriltag_defaults"];
     const MethodResult& d2t2 = results["libapriltag_decimate2_threads2"];
     for (const auto& [name, r] : results) {
       nlohmann::json j = ToJson(r);
-      j["speedup_over_libapriltag_defaults"] = {{"wall", defaults.ms_per_frame / r.ms_per_frame},
-                                                {"cpu", defaults.cpu_ms_per_frame / r.cpu_ms_per_frame}};
+      if (results.count("libapriltag_defaults")) {
+        const MethodResult& defaults = results["libapriltag_defaults"];
+        j["speedup_over_libapriltag_defaults"] = {{"wall", defaults.ms_per_frame / r.ms_per_frame},
+                                                  {"cpu", defaults.cpu_ms_per_frame / r.cpu_ms_per_frame}};
+      }
       j["speedup_over_libapriltag_decimate2_threads2"] = {{"wall", d2t2.ms_per_frame / r.ms_per_frame},
                                                           {"cpu", d2t2.cpu_ms_per_frame / r.cpu_ms_per_frame}};
       res[name] = j;
     }
-    const MethodResult& full = results["tagsfm_full_frame"];
-    res["tracking_recall_over_full_frame_recall"] =
-        full.found > 0 ? static_cast<double>(results["tagsfm_tracking"].found) / full.found : 0.0;
-    res["tracking_stats"] = {{"frames", tracker->stats().frames},
-                             {"full_frame_detections", tracker->stats().full_frame_detections},
-                             {"recoveries", tracker->stats().recoveries},
-                             {"region_detections", tracker->stats().region_detections},
-                             {"band_detections", tracker->stats().band_detections},
-                             {"tags_found_in_bands", tracker->stats().tags_found_in_bands}};
+    if (results.count("tagsfm_full_frame") && results.count("tagsfm_tracking")) {
+      res["tracking_recall_over_full_frame_recall"] =
+          static_cast<double>(results["tagsfm_tracking"].found) / std::max(1, results["tagsfm_full_frame"].found);
+    }
+    const tagsfm::TagTrackerStats& stats = tracker->stats();
+    const double per_frame = 1.0 / std::max(1, stats.frames);
+    res["tracking_stats"] = {{"frames", stats.frames},
+                             {"full_frame_detections", stats.full_frame_detections},
+                             {"recoveries", stats.recoveries},
+                             {"region_detections", stats.region_detections},
+                             {"band_detections", stats.band_detections},
+                             {"tags_found_in_bands", stats.tags_found_in_bands},
+                             {"region_cpu_ms_per_frame", stats.region_cpu_ms * per_frame},
+                             {"band_cpu_ms_per_frame", stats.band_cpu_ms * per_frame},
+                             {"refine_wall_ms_per_frame", stats.refine_ms * per_frame},
+                             {"full_frame_wall_ms_per_frame", stats.full_frame_ms * per_frame}};
     out[std::to_string(width) + "x" + std::to_string(height)] = res;
   }
   std::cout << out.dump(2) << std::endl;

@@ -1,7 +1,9 @@
 #include "tagsfm/detect/tag_tracker.h"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
+#include <ctime>
 #include <optional>
 #include <set>
 #include <vector>
@@ -17,9 +19,11 @@ Status TagTrackerOptions::Check() const {
   if (!(padding_px >= 0.0)) return MakeError("padding_px must be >= 0");
   if (!(padding_fraction >= 0.0)) return MakeError("padding_fraction must be >= 0");
   if (!(region_quad_decimate >= 1.0f)) return MakeError("region_quad_decimate must be >= 1");
+  if (!(region_coarse_module_px >= 0.0)) return MakeError("region_coarse_module_px must be >= 0");
   if (!(entry_band_tag_sizes >= 0.0 && entry_band_tag_sizes <= 100.0)) {
     return MakeError("entry_band_tag_sizes must be in [0, 100]");
   }
+  if (!(entry_band_margin_px >= 0.0)) return MakeError("entry_band_margin_px must be >= 0");
   if (!(entry_min_inflow_px >= 0.0)) return MakeError("entry_min_inflow_px must be >= 0");
   return Status::Ok();
 }
@@ -77,11 +81,28 @@ std::map<TagId, QuadCorners> TagTracker::Predict(FrameId frame,
   return out;
 }
 
+namespace {
+
+double ThreadCpuMs() {
+  timespec t{};
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
+  return 1e3 * static_cast<double>(t.tv_sec) + 1e-6 * static_cast<double>(t.tv_nsec);
+}
+
+double MsSince(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+}
+
+}  // namespace
+
 Result<DetectionSet> TagTracker::DetectFullFrame(const cv::Mat& gray8, FrameId frame) {
   ++stats_.full_frame_detections;
   frames_since_full_ = 0;
   have_full_ = true;
-  return full_detector_->Detect(gray8, frame);
+  const auto start = std::chrono::steady_clock::now();
+  Result<DetectionSet> detections = full_detector_->Detect(gray8, frame);
+  stats_.full_frame_ms += MsSince(start);
+  return detections;
 }
 
 void TagTracker::Update(const DetectionSet& detections) {
@@ -121,15 +142,29 @@ cv::Rect RegionOf(const QuadCorners& corners, const TagTrackerOptions& options, 
   return cv::Rect(left, top, right - left, bottom - top);
 }
 
+// A region to search and the smallest module size (px) of its tags.
+struct Region {
+  cv::Rect area;
+  double module_px = 0.0;
+};
+
+// Mean side of a quad over `modules` modules.
+double ModulePx(const QuadCorners& corners, int modules) {
+  double sides = 0.0;
+  for (int k = 0; k < 4; ++k) sides += (corners[(k + 1) % 4] - corners[k]).norm();
+  return 0.25 * sides / std::max(1, modules);
+}
+
 // Overlapping regions merged, so that no tag is searched (and found) twice.
-std::vector<cv::Rect> MergeOverlapping(std::vector<cv::Rect> regions) {
+std::vector<Region> MergeOverlapping(std::vector<Region> regions) {
   bool merged = true;
   while (merged) {
     merged = false;
     for (size_t i = 0; i < regions.size() && !merged; ++i) {
       for (size_t j = i + 1; j < regions.size() && !merged; ++j) {
-        if ((regions[i] & regions[j]).area() > 0) {
-          regions[i] |= regions[j];
+        if ((regions[i].area & regions[j].area).area() > 0) {
+          regions[i].area |= regions[j].area;
+          regions[i].module_px = std::min(regions[i].module_px, regions[j].module_px);
           regions.erase(regions.begin() + static_cast<long>(j));
           merged = true;
         }
@@ -227,7 +262,8 @@ void TagTracker::AddEntryBands(const cv::Size& image, std::vector<Search>* searc
       inflow = std::max(inflow, flow_at(p.x(), p.y()).dot(border.inward));
     }
     if (!(inflow >= options_.entry_min_inflow_px)) continue;
-    const int width = static_cast<int>(std::ceil(options_.entry_band_tag_sizes * largest + inflow + options_.padding_px));
+    const int width =
+        static_cast<int>(std::ceil(options_.entry_band_tag_sizes * largest + inflow + options_.entry_band_margin_px));
     cv::Rect band;
     switch (side) {
       case 0: band = cv::Rect(0, 0, width, image.height); break;
@@ -236,7 +272,7 @@ void TagTracker::AddEntryBands(const cv::Size& image, std::vector<Search>* searc
       default: band = cv::Rect(0, image.height - width, image.width, width); break;
     }
     band &= cv::Rect(0, 0, image.width, image.height);
-    if (band.area() > 0) searches->push_back(Search{band, true, {}});
+    if (band.area() > 0) searches->push_back(Search{band, true, true, {}});
   }
 }
 
@@ -252,13 +288,16 @@ Result<DetectionSet> TagTracker::Track(const cv::Mat& gray8, FrameId frame,
   }
   ++frames_since_full_;
 
-  std::vector<cv::Rect> regions;
+  std::vector<Region> regions;
+  const int modules = full_detector_->ModulesAcrossCornerSquare();
   for (const auto& [id, corners] : expected) {
-    const cv::Rect region = RegionOf(corners, options_, gray8.size());
-    if (region.area() > 0) regions.push_back(region);
+    const cv::Rect area = RegionOf(corners, options_, gray8.size());
+    if (area.area() > 0) regions.push_back(Region{area, ModulePx(corners, modules)});
   }
   searches_.clear();
-  for (const cv::Rect& region : MergeOverlapping(std::move(regions))) searches_.push_back(Search{region, false, {}});
+  for (const Region& region : MergeOverlapping(std::move(regions))) {
+    searches_.push_back(Search{region.area, false, region.module_px >= options_.region_coarse_module_px, {}});
+  }
   const size_t region_count = searches_.size();
   if (options_.search_entry_bands) AddEntryBands(gray8.size(), &searches_);
   stats_.region_detections += static_cast<int>(region_count);
@@ -268,10 +307,13 @@ Result<DetectionSet> TagTracker::Track(const cv::Mat& gray8, FrameId frame,
   std::sort(searches_.begin(), searches_.end(),
             [](const Search& a, const Search& b) { return a.area.area() > b.area.area(); });
   std::vector<std::optional<Error>> errors(per_thread_.size());
+  std::vector<double> region_cpu_ms(per_thread_.size(), 0.0), band_cpu_ms(per_thread_.size(), 0.0);
   workers_->Run(static_cast<int>(searches_.size()), [&](int i, int thread) {
     Search& search = searches_[i];
-    TagDetector& detector = search.band ? *per_thread_[thread].band : *per_thread_[thread].region;
+    TagDetector& detector = search.coarse ? *per_thread_[thread].band : *per_thread_[thread].region;
+    const double cpu_start = ThreadCpuMs();
     auto found = detector.Detect(gray8(search.area), frame);  // a view: no copy
+    (search.band ? band_cpu_ms : region_cpu_ms)[thread] += ThreadCpuMs() - cpu_start;
     if (!found) {
       errors[thread] = found.error();
       return;
@@ -284,6 +326,10 @@ Result<DetectionSet> TagTracker::Track(const cv::Mat& gray8, FrameId frame,
   });
   for (const auto& error : errors) {
     if (error) return *error;
+  }
+  for (size_t t = 0; t < per_thread_.size(); ++t) {
+    stats_.region_cpu_ms += region_cpu_ms[t];
+    stats_.band_cpu_ms += band_cpu_ms[t];
   }
 
   // Tracked regions first; from the bands only tags not found otherwise.
@@ -314,7 +360,9 @@ Result<DetectionSet> TagTracker::Track(const cv::Mat& gray8, FrameId frame,
     if (detections) Update(*detections);
     return detections;
   }
+  const auto refine_start = std::chrono::steady_clock::now();
   full_detector_->RefineDetections(gray8, &result.tags);
+  stats_.refine_ms += MsSince(refine_start);
   std::sort(result.tags.begin(), result.tags.end(),
             [](const TagDetection& a, const TagDetection& b) { return a.id < b.id; });
   Update(result);

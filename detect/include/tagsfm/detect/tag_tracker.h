@@ -39,12 +39,22 @@ struct TagTrackerOptions {
   // Regions are searched at this decimation (1: full resolution, which also
   // finds small tags the full-frame pass at quad_decimate 2 misses).
   float region_quad_decimate = 1.0f;
+  // ...except regions whose tags have modules of at least this many pixels
+  // (mean side over the modules across): libapriltag finds those as
+  // reliably at the detector's own decimation (every 36 px tag of
+  // detect_bench at quad_decimate 2), on a quarter of the pixels.
+  double region_coarse_module_px = 4.0;
   // Entry bands for new tags (see above). A band's width is
   // entry_band_tag_sizes times the largest tracked tag's extent plus the
-  // inflow per frame and padding_px: a tag that has just come wholly into
-  // view lies in it, unless it is much larger than every tag in view.
+  // inflow per frame and entry_band_margin_px. A tag that has just come
+  // wholly into view, its white quiet zone (an eighth of its extent on each
+  // side) included, reaches at most 1.25 extents plus the inflow into the
+  // image: it lies in the band, unless it is larger than every tag in view.
+  // (Bands are a third of the tracking's search time: 1.5 extents plus 10 px
+  // cost ~25 % more at 720p for no recall.)
   bool search_entry_bands = true;
-  double entry_band_tag_sizes = 1.5;
+  double entry_band_tag_sizes = 1.25;
+  double entry_band_margin_px = 3.0;
   // A border gets a band where the content flows in by at least this much
   // per frame somewhere along it; slower borders (and a still camera) are
   // left to the full-frame passes, which a tag takes many frames to escape.
@@ -59,6 +69,12 @@ struct TagTrackerStats {
   int region_detections = 0;       // libapriltag runs on regions
   int band_detections = 0;         // libapriltag runs on entry bands
   int tags_found_in_bands = 0;     // new tags the entry bands found
+  // Where the time goes (ms, summed over frames): CPU time of the searches
+  // on their threads (robust to other load), wall time of the rest.
+  double region_cpu_ms = 0.0;      // libapriltag on regions
+  double band_cpu_ms = 0.0;        // libapriltag on entry bands
+  double refine_ms = 0.0;          // edge fit of the tags found in regions and bands (wall)
+  double full_frame_ms = 0.0;      // full-frame detections, refinement included (wall)
 };
 
 class TagTracker {
@@ -92,12 +108,13 @@ class TagTracker {
 
   // Per thread: libapriltag detectors are not reentrant.
   struct ThreadDetectors {
-    std::unique_ptr<TagDetector> region;
-    std::unique_ptr<TagDetector> band;
+    std::unique_ptr<TagDetector> region;  // at region_quad_decimate
+    std::unique_ptr<TagDetector> band;    // at the detector's decimation: bands, coarse regions
   };
   struct Search {
     cv::Rect area;
     bool band = false;
+    bool coarse = false;              // at the detector's decimation (bands always)
     std::vector<TagDetection> found;  // frame coordinates, unrefined
   };
 
