@@ -27,14 +27,13 @@ ceres::HuberLoss* SharedLoss(double huber_px) {
   return loss.get();
 }
 
-ceres::Manifold* QuaternionManifold() {
-  static ceres::EigenQuaternionManifold manifold;
+ceres::Manifold* SharedPoseManifold() {
+  static PoseManifold manifold;
   return &manifold;
 }
 
-void AddPoseBlocks(ceres::Problem* problem, PoseParams* pose) {
-  problem->AddParameterBlock(pose->q, 4, QuaternionManifold());
-  problem->AddParameterBlock(pose->t, 3);
+void AddPoseBlock(ceres::Problem* problem, PoseParams* pose) {
+  problem->AddParameterBlock(pose->data, 7, SharedPoseManifold());
 }
 
 // Adds the residual blocks of one observation; returns how many.
@@ -47,13 +46,12 @@ int AddTagResiduals(ceres::Problem* problem, FrameState* frame, const TagObserva
   if (tag->known) {
     for (int k = 0; k < 4; ++k) {
       problem->AddResidualBlock(FixedPointReprojectionError::Create(obs.normalized[k], tag->known_corners[k], fx, fy),
-                                loss, frame->cam_from_world.q, frame->cam_from_world.t);
+                                loss, frame->cam_from_world.data);
     }
     return 4;
   }
   problem->AddResidualBlock(TagReprojectionError::Create(obs.normalized, tag->size_m, fx, fy), tag_loss,
-                            frame->cam_from_world.q, frame->cam_from_world.t, tag->world_from_tag.q,
-                            tag->world_from_tag.t);
+                            frame->cam_from_world.data, tag->world_from_tag.data);
   return 1;
 }
 
@@ -78,10 +76,9 @@ size_t SlidingWindowBundleAdjuster::residual_blocks() const { return static_cast
 
 void SlidingWindowBundleAdjuster::AddObservation(FrameState* frame, const TagObservation& obs, MapTag* tag) {
   if (!tag->known && !tags_in_problem_.count(tag->id)) {
-    AddPoseBlocks(problem_.get(), &tag->world_from_tag);
+    AddPoseBlock(problem_.get(), &tag->world_from_tag);
     if (tag->anchor) {
-      problem_->SetParameterBlockConstant(tag->world_from_tag.q);
-      problem_->SetParameterBlockConstant(tag->world_from_tag.t);
+      problem_->SetParameterBlockConstant(tag->world_from_tag.data);
     }
     tags_in_problem_[tag->id] = tag;
   }
@@ -93,7 +90,7 @@ void SlidingWindowBundleAdjuster::AddObservation(FrameState* frame, const TagObs
 void SlidingWindowBundleAdjuster::AddKeyframe(FrameState* frame, std::map<TagId, MapTag>* tags) {
   map_ = tags;
   if (window_.size() >= static_cast<size_t>(options_.window_keyframes)) RemoveOldest();
-  AddPoseBlocks(problem_.get(), &frame->cam_from_world);
+  AddPoseBlock(problem_.get(), &frame->cam_from_world);
   window_.push_back(frame);
   for (const auto& obs : frame->tags) {
     auto it = tags->find(obs.id);
@@ -113,16 +110,14 @@ void SlidingWindowBundleAdjuster::RemoveOldest() {
   FrameState* oldest = window_.front();
   window_.pop_front();
   if (fixed_frame_ == oldest) fixed_frame_ = nullptr;
-  // Removing the pose blocks removes the frame's residuals with them.
-  problem_->RemoveParameterBlock(oldest->cam_from_world.q);
-  problem_->RemoveParameterBlock(oldest->cam_from_world.t);
+  // Removing the pose block removes the frame's residuals with it.
+  problem_->RemoveParameterBlock(oldest->cam_from_world.data);
   for (TagId id : tags_per_frame_[oldest]) {
     if (--residuals_per_tag_[id] > 0) continue;
     residuals_per_tag_.erase(id);
     auto it = tags_in_problem_.find(id);
     if (it != tags_in_problem_.end()) {
-      problem_->RemoveParameterBlock(it->second->world_from_tag.q);
-      problem_->RemoveParameterBlock(it->second->world_from_tag.t);
+      problem_->RemoveParameterBlock(it->second->world_from_tag.data);
       tags_in_problem_.erase(it);
     }
   }
@@ -134,8 +129,7 @@ void SlidingWindowBundleAdjuster::HoldOldestFixed() {
   // fixed, it keeps the window from drifting (and fixes the gauge).
   if (window_.empty() || fixed_frame_ == window_.front()) return;
   fixed_frame_ = window_.front();
-  problem_->SetParameterBlockConstant(window_.front()->cam_from_world.q);
-  problem_->SetParameterBlockConstant(window_.front()->cam_from_world.t);
+  problem_->SetParameterBlockConstant(window_.front()->cam_from_world.data);
 }
 
 bool SlidingWindowBundleAdjuster::Solve() {
@@ -173,8 +167,8 @@ void ComputeCovariance(ceres::Problem* problem, const std::vector<FrameState*>& 
   std::vector<double*> blocks;
   std::map<const double*, int> tag_column;  // tag q block -> first column among the tag unknowns
   for (auto& [id, tag] : *tags) {
-    if (tag.known || tag.anchor || !problem->HasParameterBlock(tag.world_from_tag.q)) continue;
-    tag_column[tag.world_from_tag.q] = 6 * static_cast<int>(result.ids.size());
+    if (tag.known || tag.anchor || !problem->HasParameterBlock(tag.world_from_tag.data)) continue;
+    tag_column[tag.world_from_tag.data] = 6 * static_cast<int>(result.ids.size());
     result.ids.push_back(id);
   }
   if (result.ids.empty()) {
@@ -183,17 +177,15 @@ void ComputeCovariance(ceres::Problem* problem, const std::vector<FrameState*>& 
   }
   std::vector<FrameState*> cameras;
   for (FrameState* f : frames) {
-    if (problem->HasParameterBlock(f->cam_from_world.q)) {
+    if (problem->HasParameterBlock(f->cam_from_world.data)) {
       cameras.push_back(f);
-      blocks.push_back(f->cam_from_world.q);
-      blocks.push_back(f->cam_from_world.t);
+      blocks.push_back(f->cam_from_world.data);
     }
   }
   const int camera_columns = 6 * static_cast<int>(cameras.size());
   for (auto& [id, tag] : *tags) {
-    if (tag_column.count(tag.world_from_tag.q)) {
-      blocks.push_back(tag.world_from_tag.q);
-      blocks.push_back(tag.world_from_tag.t);
+    if (tag_column.count(tag.world_from_tag.data)) {
+      blocks.push_back(tag.world_from_tag.data);
     }
   }
   ceres::Problem::EvaluateOptions eval;
@@ -280,30 +272,28 @@ GlobalAdjustmentSummary AdjustGlobally(const std::vector<FrameState*>& frames, s
       if (it == tags->end() || obs.outlier) continue;
       MapTag& tag = it->second;
       if (!tag.known && !added[tag.id]) {
-        AddPoseBlocks(&problem, &tag.world_from_tag);
+        AddPoseBlock(&problem, &tag.world_from_tag);
         if (tag.anchor) {
-          problem.SetParameterBlockConstant(tag.world_from_tag.q);
-          problem.SetParameterBlockConstant(tag.world_from_tag.t);
+          problem.SetParameterBlockConstant(tag.world_from_tag.data);
         } else {
           free_parameters += 6;
         }
         added[tag.id] = true;
       }
       if (residuals == 0) {
-        AddPoseBlocks(&problem, &frame->cam_from_world);
+        AddPoseBlock(&problem, &frame->cam_from_world);
         free_parameters += 6;
       }
       if (refine_camera) {
         if (tag.known) {
           for (int k = 0; k < 4; ++k) {
             problem.AddResidualBlock(FixedPointPixelReprojectionError::Create(obs.pixels[k], tag.known_corners[k]),
-                                     SharedLoss(options.huber_px), frame->cam_from_world.q, frame->cam_from_world.t,
-                                     intrinsics);
+                                     SharedLoss(options.huber_px), frame->cam_from_world.data, intrinsics);
           }
         } else {
           problem.AddResidualBlock(TagPixelReprojectionError::Create(obs.pixels, tag.size_m),
-                                   SharedLoss(2 * options.huber_px), frame->cam_from_world.q, frame->cam_from_world.t,
-                                   tag.world_from_tag.q, tag.world_from_tag.t, intrinsics);
+                                   SharedLoss(2 * options.huber_px), frame->cam_from_world.data,
+                                   tag.world_from_tag.data, intrinsics);
         }
         ++residuals;
       } else {
@@ -367,12 +357,11 @@ std::map<TagId, std::array<double, 4>> RelaxedTagEdgeLengths(const std::vector<F
       auto it = corners.find(obs.id);
       if (it == corners.end() || obs.outlier) continue;
       if (!added) {
-        AddPoseBlocks(&problem, &cam);
+        AddPoseBlock(&problem, &cam);
         added = true;
       }
       for (int k = 0; k < 4; ++k) {
-        problem.AddResidualBlock(ReprojectionError::Create(obs.normalized[k], fx, fy), loss, cam.q, cam.t,
-                                 it->second[k].data());
+        problem.AddResidualBlock(ReprojectionError::Create(obs.normalized[k], fx, fy), loss, cam.data, it->second[k].data());
       }
     }
   }

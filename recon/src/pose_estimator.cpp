@@ -239,9 +239,9 @@ Rigid3d RefinePose(const std::vector<Eigen::Vector3d>& points_in_world, const st
   ceres::HuberLoss loss(huber_px);
   for (int i : use) {
     problem.AddResidualBlock(FixedPointReprojectionError::Create(normalized[i], points_in_world[i], fx, fy), &loss,
-                             pose.q, pose.t);
+                             pose.data);
   }
-  problem.SetManifold(pose.q, new ceres::EigenQuaternionManifold);
+  problem.SetManifold(pose.data, new PoseManifold);
   ceres::Solver::Options options;
   options.linear_solver_type = ceres::DENSE_QR;
   options.max_num_iterations = max_iterations;

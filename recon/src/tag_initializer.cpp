@@ -76,11 +76,10 @@ std::optional<TagInitialization> InitializeTag(const std::vector<TagView>& views
   for (const auto& v : views) {
     cams.push_back(v.frame->cam_from_world);
     problem.AddResidualBlock(TagReprojectionError::Create(v.observation->normalized, size_m, fx, fy),
-                             new ceres::HuberLoss(2.0), cams.back().q, cams.back().t, tag.q, tag.t);
-    problem.SetParameterBlockConstant(cams.back().q);
-    problem.SetParameterBlockConstant(cams.back().t);
+                             new ceres::HuberLoss(2.0), cams.back().data, tag.data);
+    problem.SetParameterBlockConstant(cams.back().data);
   }
-  problem.SetManifold(tag.q, new ceres::EigenQuaternionManifold);
+  problem.SetManifold(tag.data, new PoseManifold);
   ceres::Solver::Options options;
   options.linear_solver_type = ceres::DENSE_QR;
   options.max_num_iterations = 20;

@@ -4,7 +4,6 @@
 #include <algorithm>
 #include <cmath>
 
-#include <ceres/manifold.h>
 #include <gtest/gtest.h>
 
 #include "tagsfm/recon/pose_params.h"
@@ -58,46 +57,59 @@ void ExpectDerivativesMatch(ceres::CostFunction* cost, std::vector<const ceres::
 }
 
 TEST(CostFunctions, ReprojectionErrorDerivatives) {
-  ceres::EigenQuaternionManifold quaternion;
   PoseParams cam = SomePose(0.1, -0.2, 0.3, {0.1, -0.05, 2.0});
   double point[3] = {0.2, -0.1, 0.3};
-  ExpectDerivativesMatch(ReprojectionError::Create({0.05, -0.02}, 1000, 1001), {&quaternion, nullptr, nullptr},
-                         {cam.q, cam.t, point});
+  ExpectDerivativesMatch(ReprojectionError::Create({0.05, -0.02}, 1000, 1001), {nullptr, nullptr},
+                         {cam.data, point});
 }
 
 TEST(CostFunctions, FixedPointReprojectionErrorDerivatives) {
-  ceres::EigenQuaternionManifold quaternion;
   PoseParams cam = SomePose(-0.3, 0.2, 0.1, {0.0, 0.1, 1.5});
   ExpectDerivativesMatch(FixedPointReprojectionError::Create({0.01, 0.02}, {0.1, 0.2, 0.3}, 900, 900),
-                         {&quaternion, nullptr}, {cam.q, cam.t});
+                         {nullptr}, {cam.data});
 }
 
 TEST(CostFunctions, TagCornerReprojectionErrorDerivatives) {
-  ceres::EigenQuaternionManifold quaternion;
   PoseParams cam = SomePose(0.2, 0.1, -0.1, {0.05, 0.0, 2.5});
   PoseParams tag = SomePose(1.2, 0.3, 0.4, {0.3, -0.2, 0.5});
   ExpectDerivativesMatch(TagCornerReprojectionError::Create({0.1, 0.05}, {0.03, -0.03, 0}, 1000, 1000),
-                         {&quaternion, nullptr, &quaternion, nullptr}, {cam.q, cam.t, tag.q, tag.t});
+                         {nullptr, nullptr}, {cam.data, tag.data});
 }
 
 TEST(CostFunctions, TagReprojectionErrorDerivativesAndAgreementWithPerCorner) {
-  ceres::EigenQuaternionManifold quaternion;
   PoseParams cam = SomePose(0.2, 0.1, -0.1, {0.05, 0.0, 2.5});
   PoseParams tag = SomePose(1.2, 0.3, 0.4, {0.3, -0.2, 0.5});
   const std::array<Eigen::Vector2d, 4> observed{Eigen::Vector2d(0.1, 0.05), Eigen::Vector2d(0.12, 0.05),
                                                 Eigen::Vector2d(0.12, 0.07), Eigen::Vector2d(0.1, 0.07)};
   ExpectDerivativesMatch(TagReprojectionError::Create(observed, 0.06, 1000, 990),
-                         {&quaternion, nullptr, &quaternion, nullptr}, {cam.q, cam.t, tag.q, tag.t});
+                         {nullptr, nullptr}, {cam.data, tag.data});
   // The four-corner block equals the four per-corner residuals.
   double block[8];
-  ASSERT_TRUE(TagReprojectionError(observed, 0.06, 1000, 990)(cam.q, cam.t, tag.q, tag.t, block));
+  ASSERT_TRUE(TagReprojectionError(observed, 0.06, 1000, 990)(cam.data, tag.data, block));
   for (int k = 0; k < 4; ++k) {
     double corner[2];
-    ASSERT_TRUE(TagCornerReprojectionError(observed[k], TagCornerInTag(k, 0.06), 1000, 990)(cam.q, cam.t, tag.q, tag.t,
-                                                                                          corner));
+    ASSERT_TRUE(TagCornerReprojectionError(observed[k], TagCornerInTag(k, 0.06), 1000, 990)(cam.data, tag.data, corner));
     EXPECT_NEAR(block[2 * k], corner[0], 1e-9);
     EXPECT_NEAR(block[2 * k + 1], corner[1], 1e-9);
   }
+}
+
+// A pose block's tangent is [rotation (3), translation (3)], the rotation
+// applied on the left (world frame): the order targets_cov.csv documents.
+TEST(CostFunctions, PoseManifoldTangentIsRotationThenTranslation) {
+  const PoseManifold manifold;
+  ASSERT_EQ(manifold.AmbientSize(), 7);
+  ASSERT_EQ(manifold.TangentSize(), 6);
+  PoseParams pose = SomePose(0.3, -0.2, 0.1, {0.1, 0.2, 0.3});
+  const double delta[6] = {0.01, -0.02, 0.03, 0.4, 0.5, 0.6};
+  PoseParams moved;
+  ASSERT_TRUE(manifold.Plus(pose.data, delta, moved.data));
+  const Rigid3d before = pose.ToRigid(), after = moved.ToRigid();
+  EXPECT_NEAR((after.translation - before.translation - Eigen::Vector3d(0.4, 0.5, 0.6)).norm(), 0, 1e-12);
+  // EigenQuaternionManifold: q' = exp(delta) * q, exp(delta) = (sin|d| d/|d|, cos|d|).
+  const Eigen::Vector3d d(0.01, -0.02, 0.03);
+  const Eigen::Quaterniond left(Eigen::AngleAxisd(2 * d.norm(), d.normalized()));
+  EXPECT_LT(left.angularDistance(after.rotation * before.rotation.inverse()), 1e-12);
 }
 
 TEST(CostFunctions, TagEdgeLengthErrorDerivativesAndValue) {
@@ -119,11 +131,11 @@ TEST(CostFunctions, ReprojectionErrorIsZeroAtTheTruthAndReadsInPixels) {
   const Eigen::Vector3d in_cam = cam.ToRigid() * Eigen::Vector3d(point[0], point[1], point[2]);
   const Eigen::Vector2d observed(in_cam.x() / in_cam.z(), in_cam.y() / in_cam.z());
   double residual[2];
-  ASSERT_TRUE(ReprojectionError(observed, 1000, 800)(cam.q, cam.t, point, residual));
+  ASSERT_TRUE(ReprojectionError(observed, 1000, 800)(cam.data, point, residual));
   EXPECT_NEAR(residual[0], 0, 1e-9);
   EXPECT_NEAR(residual[1], 0, 1e-9);
   // An observation 0.001 off in normalised x is 1 px at fx = 1000.
-  ASSERT_TRUE(ReprojectionError(observed + Eigen::Vector2d(0.001, 0.001), 1000, 800)(cam.q, cam.t, point, residual));
+  ASSERT_TRUE(ReprojectionError(observed + Eigen::Vector2d(0.001, 0.001), 1000, 800)(cam.data, point, residual));
   EXPECT_NEAR(residual[0], -1.0, 1e-9);
   EXPECT_NEAR(residual[1], -0.8, 1e-9);
 }

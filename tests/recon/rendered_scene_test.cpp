@@ -80,9 +80,10 @@ TEST(RenderedBoxSceneSlow, IssueAccuracyWithAndWithoutMap) {
 
   // No map: the issue asks for corner RMS <= 1/10,000 of the scene after a
   // rigid alignment, scale within 0.1 %. Measured on these 40 photos
-  // 1/9,830 and -0.014 % (the renderer blurring the pixels instead of the
-  // scene: 1/9,260, -0.025 %); the worst tags are on the floor, seen in 3-4
-  // photos each. The bound is the scale goal itself and 1/7,500 for the
+  // 1/9,500-1/9,830 and -0.014 % (the range: which 3 views the outlier
+  // choice drops depends on the incremental state; the renderer blurring
+  // the pixels instead of the scene: 1/9,260, -0.025 %); the worst tags are
+  // on the floor, seen in 3-4 photos each. The bound is the scale goal itself and 1/7,500 for the
   // corners (a regression check, short of the goal).
   const ReconstructionResult learned = Reconstruct(r, std::nullopt);
   const TruthComparison n = CompareWithTruth(learned.Poses(), learned.Targets(), r.true_poses, r.true_targets, true);

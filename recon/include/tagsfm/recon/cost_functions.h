@@ -2,8 +2,11 @@
 // The residuals of the adjustment, one small functor per kind. Observations
 // are undistorted to normalised image coordinates once (CameraModel::
 // PixelsToNormalized), and residuals are scaled back by fx, fy so they read
-// in pixels. Poses are PoseParams arrays: quaternion (x, y, z, w) + translation.
+// in pixels. Poses are PoseParams blocks of 7: quaternion (x, y, z, w),
+// then translation.
 #include <ceres/autodiff_cost_function.h>
+#include <ceres/manifold.h>
+#include <ceres/product_manifold.h>
 #include <ceres/rotation.h>
 
 #include <array>
@@ -13,12 +16,25 @@
 
 namespace tagsfm {
 
+// The manifold of a PoseParams block: the quaternion's (Ceres'
+// EigenQuaternionManifold: exp of the tangent applied on the left) times
+// R^3; tangent [rotation (3), translation (3)].
+using PoseManifold = ceres::ProductManifold<ceres::EigenQuaternionManifold, ceres::EuclideanManifold<3>>;
+
 namespace cost_detail {
 template <class T>
-Eigen::Matrix<T, 3, 1> Transform(const T* q, const T* t, const Eigen::Matrix<T, 3, 1>& point) {
-  const Eigen::Map<const Eigen::Quaternion<T>> rotation(q);
-  const Eigen::Map<const Eigen::Matrix<T, 3, 1>> translation(t);
+Eigen::Matrix<T, 3, 1> Transform(const T* pose, const Eigen::Matrix<T, 3, 1>& point) {
+  const Eigen::Map<const Eigen::Quaternion<T>> rotation(pose);
+  const Eigen::Map<const Eigen::Matrix<T, 3, 1>> translation(pose + 4);
   return rotation * point + translation;
+}
+// camera-from-tag = camera-from-world * world-from-tag, as rotation matrix and translation.
+template <class T>
+void Compose(const T* cam_from_world, const T* world_from_tag, Eigen::Matrix<T, 3, 3>* r, Eigen::Matrix<T, 3, 1>* t) {
+  const Eigen::Map<const Eigen::Quaternion<T>> cam_r(cam_from_world), tag_r(world_from_tag);
+  const Eigen::Map<const Eigen::Matrix<T, 3, 1>> cam_t(cam_from_world + 4), tag_t(world_from_tag + 4);
+  *r = (cam_r * tag_r).toRotationMatrix();
+  *t = cam_r * tag_t + cam_t;
 }
 template <class T>
 void ProjectResidual(const Eigen::Matrix<T, 3, 1>& point_in_cam, const Eigen::Vector2d& observed, double fx, double fy,
@@ -28,38 +44,38 @@ void ProjectResidual(const Eigen::Matrix<T, 3, 1>& point_in_cam, const Eigen::Ve
 }
 }  // namespace cost_detail
 
-// A free 3D point seen by a camera: blocks cam_q[4], cam_t[3], point_in_world[3].
+// A free 3D point seen by a camera: blocks cam_from_world[7], point_in_world[3].
 struct ReprojectionError {
   ReprojectionError(const Eigen::Vector2d& observed_normalized, double fx, double fy)
       : observed(observed_normalized), fx(fx), fy(fy) {}
   template <class T>
-  bool operator()(const T* cam_q, const T* cam_t, const T* point, T* residual) const {
+  bool operator()(const T* cam_from_world, const T* point, T* residual) const {
     const Eigen::Matrix<T, 3, 1> p(point[0], point[1], point[2]);
-    cost_detail::ProjectResidual(cost_detail::Transform(cam_q, cam_t, p), observed, fx, fy, residual);
+    cost_detail::ProjectResidual(cost_detail::Transform(cam_from_world, p), observed, fx, fy, residual);
     return true;
   }
   static ceres::CostFunction* Create(const Eigen::Vector2d& observed_normalized, double fx, double fy) {
-    return new ceres::AutoDiffCostFunction<ReprojectionError, 2, 4, 3, 3>(
+    return new ceres::AutoDiffCostFunction<ReprojectionError, 2, 7, 3>(
         new ReprojectionError(observed_normalized, fx, fy));
   }
   Eigen::Vector2d observed;
   double fx, fy;
 };
 
-// A point held fixed (a known-map corner) seen by a camera: blocks cam_q, cam_t.
+// A point held fixed (a known-map corner) seen by a camera: block cam_from_world.
 struct FixedPointReprojectionError {
   FixedPointReprojectionError(const Eigen::Vector2d& observed_normalized, const Eigen::Vector3d& point_in_world,
                               double fx, double fy)
       : observed(observed_normalized), point(point_in_world), fx(fx), fy(fy) {}
   template <class T>
-  bool operator()(const T* cam_q, const T* cam_t, T* residual) const {
-    cost_detail::ProjectResidual(cost_detail::Transform(cam_q, cam_t, point.cast<T>().eval()), observed, fx, fy,
+  bool operator()(const T* cam_from_world, T* residual) const {
+    cost_detail::ProjectResidual(cost_detail::Transform(cam_from_world, point.cast<T>().eval()), observed, fx, fy,
                                  residual);
     return true;
   }
   static ceres::CostFunction* Create(const Eigen::Vector2d& observed_normalized, const Eigen::Vector3d& point_in_world,
                                      double fx, double fy) {
-    return new ceres::AutoDiffCostFunction<FixedPointReprojectionError, 2, 4, 3>(
+    return new ceres::AutoDiffCostFunction<FixedPointReprojectionError, 2, 7>(
         new FixedPointReprojectionError(observed_normalized, point_in_world, fx, fy));
   }
   Eigen::Vector2d observed;
@@ -68,21 +84,21 @@ struct FixedPointReprojectionError {
 };
 
 // Corner k of a square tag of known size, the tag a rigid body:
-// blocks cam_q, cam_t (cam_from_world), tag_q, tag_t (world_from_tag).
+// blocks cam_from_world, world_from_tag.
 // The size enters as a constant, so the square is exact by construction.
 struct TagCornerReprojectionError {
   TagCornerReprojectionError(const Eigen::Vector2d& observed_normalized, const Eigen::Vector3d& corner_in_tag,
                              double fx, double fy)
       : observed(observed_normalized), corner(corner_in_tag), fx(fx), fy(fy) {}
   template <class T>
-  bool operator()(const T* cam_q, const T* cam_t, const T* tag_q, const T* tag_t, T* residual) const {
-    const Eigen::Matrix<T, 3, 1> in_world = cost_detail::Transform(tag_q, tag_t, corner.cast<T>().eval());
-    cost_detail::ProjectResidual(cost_detail::Transform(cam_q, cam_t, in_world), observed, fx, fy, residual);
+  bool operator()(const T* cam_from_world, const T* world_from_tag, T* residual) const {
+    const Eigen::Matrix<T, 3, 1> in_world = cost_detail::Transform(world_from_tag, corner.cast<T>().eval());
+    cost_detail::ProjectResidual(cost_detail::Transform(cam_from_world, in_world), observed, fx, fy, residual);
     return true;
   }
   static ceres::CostFunction* Create(const Eigen::Vector2d& observed_normalized, const Eigen::Vector3d& corner_in_tag,
                                      double fx, double fy) {
-    return new ceres::AutoDiffCostFunction<TagCornerReprojectionError, 2, 4, 3, 4, 3>(
+    return new ceres::AutoDiffCostFunction<TagCornerReprojectionError, 2, 7, 7>(
         new TagCornerReprojectionError(observed_normalized, corner_in_tag, fx, fy));
   }
   Eigen::Vector2d observed;
@@ -98,11 +114,10 @@ struct TagReprojectionError {
   TagReprojectionError(const std::array<Eigen::Vector2d, 4>& observed_normalized, double size_m, double fx, double fy)
       : observed(observed_normalized), half(0.5 * size_m), fx(fx), fy(fy) {}
   template <class T>
-  bool operator()(const T* cam_q, const T* cam_t, const T* tag_q, const T* tag_t, T* residual) const {
-    const Eigen::Map<const Eigen::Quaternion<T>> cam_r(cam_q), tag_r(tag_q);
-    const Eigen::Map<const Eigen::Matrix<T, 3, 1>> cam_tr(cam_t), tag_tr(tag_t);
-    const Eigen::Matrix<T, 3, 3> r = (cam_r * tag_r).toRotationMatrix();
-    const Eigen::Matrix<T, 3, 1> t = cam_r * tag_tr + cam_tr;
+  bool operator()(const T* cam_from_world, const T* world_from_tag, T* residual) const {
+    Eigen::Matrix<T, 3, 3> r;
+    Eigen::Matrix<T, 3, 1> t;
+    cost_detail::Compose(cam_from_world, world_from_tag, &r, &t);
     static constexpr double kSigns[4][2] = {{-1, -1}, {1, -1}, {1, 1}, {-1, 1}};
     for (int k = 0; k < 4; ++k) {
       const Eigen::Matrix<T, 3, 1> p = r.col(0) * T(kSigns[k][0] * half) + r.col(1) * T(kSigns[k][1] * half) + t;
@@ -112,7 +127,7 @@ struct TagReprojectionError {
   }
   static ceres::CostFunction* Create(const std::array<Eigen::Vector2d, 4>& observed_normalized, double size_m,
                                      double fx, double fy) {
-    return new ceres::AutoDiffCostFunction<TagReprojectionError, 8, 4, 3, 4, 3>(
+    return new ceres::AutoDiffCostFunction<TagReprojectionError, 8, 7, 7>(
         new TagReprojectionError(observed_normalized, size_m, fx, fy));
   }
   std::array<Eigen::Vector2d, 4> observed;
@@ -137,12 +152,10 @@ struct TagPixelReprojectionError {
   TagPixelReprojectionError(const std::array<Eigen::Vector2d, 4>& observed_px, double size_m)
       : observed(observed_px), half(0.5 * size_m) {}
   template <class T>
-  bool operator()(const T* cam_q, const T* cam_t, const T* tag_q, const T* tag_t, const T* intrinsics,
-                  T* residual) const {
-    const Eigen::Map<const Eigen::Quaternion<T>> cam_r(cam_q), tag_r(tag_q);
-    const Eigen::Map<const Eigen::Matrix<T, 3, 1>> cam_tr(cam_t), tag_tr(tag_t);
-    const Eigen::Matrix<T, 3, 3> r = (cam_r * tag_r).toRotationMatrix();
-    const Eigen::Matrix<T, 3, 1> t = cam_r * tag_tr + cam_tr;
+  bool operator()(const T* cam_from_world, const T* world_from_tag, const T* intrinsics, T* residual) const {
+    Eigen::Matrix<T, 3, 3> r;
+    Eigen::Matrix<T, 3, 1> t;
+    cost_detail::Compose(cam_from_world, world_from_tag, &r, &t);
     static constexpr double kSigns[4][2] = {{-1, -1}, {1, -1}, {1, 1}, {-1, 1}};
     for (int k = 0; k < 4; ++k) {
       const Eigen::Matrix<T, 3, 1> p = r.col(0) * T(kSigns[k][0] * half) + r.col(1) * T(kSigns[k][1] * half) + t;
@@ -151,7 +164,7 @@ struct TagPixelReprojectionError {
     return true;
   }
   static ceres::CostFunction* Create(const std::array<Eigen::Vector2d, 4>& observed_px, double size_m) {
-    return new ceres::AutoDiffCostFunction<TagPixelReprojectionError, 8, 4, 3, 4, 3, 6>(
+    return new ceres::AutoDiffCostFunction<TagPixelReprojectionError, 8, 7, 7, 6>(
         new TagPixelReprojectionError(observed_px, size_m));
   }
   std::array<Eigen::Vector2d, 4> observed;
@@ -162,13 +175,13 @@ struct FixedPointPixelReprojectionError {
   FixedPointPixelReprojectionError(const Eigen::Vector2d& observed_px, const Eigen::Vector3d& point_in_world)
       : observed(observed_px), point(point_in_world) {}
   template <class T>
-  bool operator()(const T* cam_q, const T* cam_t, const T* intrinsics, T* residual) const {
-    cost_detail::ProjectPixelResidual(cost_detail::Transform(cam_q, cam_t, point.cast<T>().eval()), intrinsics,
+  bool operator()(const T* cam_from_world, const T* intrinsics, T* residual) const {
+    cost_detail::ProjectPixelResidual(cost_detail::Transform(cam_from_world, point.cast<T>().eval()), intrinsics,
                                       observed, residual);
     return true;
   }
   static ceres::CostFunction* Create(const Eigen::Vector2d& observed_px, const Eigen::Vector3d& point_in_world) {
-    return new ceres::AutoDiffCostFunction<FixedPointPixelReprojectionError, 2, 4, 3, 6>(
+    return new ceres::AutoDiffCostFunction<FixedPointPixelReprojectionError, 2, 7, 6>(
         new FixedPointPixelReprojectionError(observed_px, point_in_world));
   }
   Eigen::Vector2d observed;
