@@ -3,13 +3,14 @@
 // about 30 in view, 1280x720, 0.1 px corner noise. Prints JSON: p50/p95/max
 // per mode, and p95 of frames 100-200 against 900-1000 (the per-frame cost
 // must not grow with the sequence).
-//   build-recon/bench/recon_latency_bench [frames]
+//   build/bench/recon_latency_bench [frames [known_map|no_map]]   (default: 1000, both)
 #include <time.h>
 
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
+#include <string>
 #include <thread>
 
 #include <nlohmann/json.hpp>
@@ -45,7 +46,7 @@ nlohmann::json RunMode(const tagsfm::SyntheticScene& scene, double tag_size, boo
                                              known_map ? std::optional<tagsfm::TargetCornerMap>(scene.targets)
                                                        : std::nullopt,
                                              {});
-  std::vector<double> ms, cpu_ms;
+  std::vector<double> ms, cpu_ms, keyframe_ms, other_ms;
   int registered = 0;
   for (const auto& detections : scene.detections) {
     const auto t0 = std::chrono::steady_clock::now();
@@ -54,6 +55,7 @@ nlohmann::json RunMode(const tagsfm::SyntheticScene& scene, double tag_size, boo
     cpu_ms.push_back(ThreadCpuMs() - c0);
     ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
     registered += report.registered;
+    (report.keyframe ? keyframe_ms : other_ms).push_back(ms.back());
   }
   const auto t0 = std::chrono::steady_clock::now();
   const auto result = (*recon)->Finish();
@@ -67,6 +69,9 @@ nlohmann::json RunMode(const tagsfm::SyntheticScene& scene, double tag_size, boo
           {"p95_frames_100_200_ms", Percentile(slice(ms, 100, 200), 0.95)},
           {"p95_frames_900_1000_ms", Percentile(slice(ms, 900, 1000), 0.95)},
           {"frame_cpu_ms", Summary(cpu_ms)},
+          {"keyframes", keyframe_ms.size()},
+          {"keyframe_latency_ms", Summary(keyframe_ms)},
+          {"other_frame_latency_ms", Summary(other_ms)},
           {"cpu_p95_frames_100_200_ms", Percentile(slice(cpu_ms, 100, 200), 0.95)},
           {"cpu_p95_frames_900_1000_ms", Percentile(slice(cpu_ms, 900, 1000), 0.95)},
           {"registered_frames", registered},
@@ -95,8 +100,9 @@ int main(int argc, char** argv) {
   out["image"] = std::to_string(options.width) + "x" + std::to_string(options.height);
   out["mean_tags_in_view"] = in_view / static_cast<double>(scene.detections.size());
   out["hardware_threads"] = std::thread::hardware_concurrency();
-  out["known_map"] = RunMode(scene, options.tag_size_m, true);
-  out["no_map"] = RunMode(scene, options.tag_size_m, false);
+  const std::string only = argc > 2 ? argv[2] : "";
+  if (only.empty() || only == "known_map") out["known_map"] = RunMode(scene, options.tag_size_m, true);
+  if (only.empty() || only == "no_map") out["no_map"] = RunMode(scene, options.tag_size_m, false);
   out["peak_rss_mb"] = tagsfm::PeakRssMb();
   double load = 0;
   if (FILE* f = std::fopen("/proc/loadavg", "r")) {
