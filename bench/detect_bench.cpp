@@ -166,6 +166,13 @@ int main(int argc, char** argv) {
       const tagsfm::Result<tagsfm::DetectionSet> found = tracker->Track(gray, f);
       return found ? Ids(*found) : std::vector<int>{};
     });
+    tagsfm::TagTrackerOptions libapriltag_bands;
+    libapriltag_bands.entry_band_candidates = false;
+    auto tracker_libapriltag_bands = *tagsfm::TagTracker::Create(tagsfm::TagDetectorOptions{}, libapriltag_bands);
+    Measure("tagsfm_tracking_bands_by_libapriltag", [&](const cv::Mat& gray, int f) {
+      const tagsfm::Result<tagsfm::DetectionSet> found = tracker_libapriltag_bands->Track(gray, f);
+      return found ? Ids(*found) : std::vector<int>{};
+    });
     tagsfm::TagTrackerOptions no_bands;
     no_bands.search_entry_bands = false;
     auto tracker_no_bands = *tagsfm::TagTracker::Create(tagsfm::TagDetectorOptions{}, no_bands);

@@ -29,6 +29,7 @@
 
 namespace tagsfm {
 namespace detail {
+class BandCandidates;
 class DetectionWorkers;
 }
 
@@ -55,6 +56,12 @@ struct TagTrackerOptions {
   bool search_entry_bands = true;
   double entry_band_tag_sizes = 1.25;
   double entry_band_margin_px = 3.0;
+  // Bands searched by candidates: OpenCV's aruco (families it has a
+  // dictionary for: tag36h11, tag36h10, tag25h9, tag16h5) says where tags
+  // are, libapriltag confirms each one not tracked already in a small
+  // region. ~5x cheaper than libapriltag on the whole band. Off, or another
+  // family: libapriltag on the whole band.
+  bool entry_band_candidates = true;
   // A border gets a band where the content flows in by at least this much
   // per frame somewhere along it; slower borders (and a still camera) are
   // left to the full-frame passes, which a tag takes many frames to escape.
@@ -118,7 +125,11 @@ class TagTracker {
     std::vector<TagDetection> found;  // frame coordinates, unrefined
   };
 
-  TagTracker(TagTrackerOptions options, std::unique_ptr<TagDetector> full, std::vector<ThreadDetectors> per_thread);
+  TagTracker(TagTrackerOptions options, std::unique_ptr<TagDetector> full, std::vector<ThreadDetectors> per_thread,
+             std::unique_ptr<detail::BandCandidates> candidates);
+  Status SearchArea(const cv::Mat& gray8, FrameId frame, int thread, Search* search) const;
+  Status SearchBandCandidates(const cv::Mat& gray8, FrameId frame, const std::vector<cv::Rect>& regions, int thread,
+                              Search* band) const;
   std::map<TagId, QuadCorners> Predict(FrameId frame, const std::map<TagId, QuadCorners>& predicted) const;
   void AddEntryBands(const cv::Size& image, std::vector<Search>* searches) const;
   Result<DetectionSet> DetectFullFrame(const cv::Mat& gray8, FrameId frame);
@@ -127,6 +138,7 @@ class TagTracker {
   TagTrackerOptions options_;
   std::unique_ptr<TagDetector> full_detector_;
   std::vector<ThreadDetectors> per_thread_;
+  std::unique_ptr<detail::BandCandidates> band_candidates_;  // null: bands by libapriltag
   std::unique_ptr<detail::DetectionWorkers> workers_;
   std::vector<Search> searches_;  // reused from frame to frame
   std::map<TagId, TagTrack> tracks_;
