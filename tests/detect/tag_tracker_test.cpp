@@ -87,6 +87,38 @@ TEST(TagTrackerSlow, SameRecallAndAccuracyAsFullFrame) {
   EXPECT_LE(stats.full_frame_detections, 6);
 }
 
+// Entry bands on small tags (24 px, 3 px modules): below
+// entry_band_candidates_min_module_px the bands are searched by libapriltag
+// (aruco misses some such tags); every entering tag must still be found on
+// the frame the full-frame detector first finds it.
+TEST(TagTrackerSlow, SmallTagsEnterOnTime) {
+  const std::vector<std::vector<PlacedTag>> truth = VideoTagPlacements(640, 480, 12, 24.0, 24, 4.0, 11);
+  auto full = TagDetector::Create(TagDetectorOptions{});
+  auto tracker = TagTracker::Create(TagDetectorOptions{}, TagTrackerOptions{});
+  ASSERT_TRUE(full.has_value());
+  ASSERT_TRUE(tracker.has_value());
+  std::set<TagId> ever_tracked;
+  int late = 0, sightings = 0;
+  for (size_t f = 0; f < truth.size(); ++f) {
+    const cv::Mat frame = RenderFrame(truth[f], 300 + f);
+    auto by_full = (*full)->Detect(frame, f);
+    auto by_tracker = (*tracker)->Track(frame, f);
+    ASSERT_TRUE(by_full.has_value());
+    ASSERT_TRUE(by_tracker.has_value());
+    const std::set<TagId> tracked_ids = Ids(*by_tracker);
+    for (TagId id : Ids(*by_full)) {
+      ++sightings;
+      if (tracked_ids.count(id)) continue;
+      EXPECT_FALSE(ever_tracked.count(id)) << "frame " << f << ": tag " << id << " lost";
+      ++late;
+    }
+    ever_tracked.insert(tracked_ids.begin(), tracked_ids.end());
+  }
+  std::printf("small tags: %d sightings by the full-frame detector, %d late in tracking, %d found in bands\n",
+              sightings, late, (*tracker)->stats().tags_found_in_bands);
+  EXPECT_EQ(late, 0);
+}
+
 TEST(TagTracker, CallerPredictionsAreSearched) {
   const auto truth = VideoTruth();
   TagTrackerOptions options;

@@ -59,9 +59,15 @@ struct TagTrackerOptions {
   // Bands searched by candidates: OpenCV's aruco (families it has a
   // dictionary for: tag36h11, tag36h10, tag25h9, tag16h5) says where tags
   // are, libapriltag confirms each one not tracked already in a small
-  // region. ~5x cheaper than libapriltag on the whole band. Off, or another
-  // family: libapriltag on the whole band.
+  // region. ~5x cheaper than libapriltag on the whole band. Only while the
+  // smallest tag in view has modules (mean side over modules across) of
+  // entry_band_candidates_min_module_px or more: aruco finds more small
+  // tags than libapriltag at quad_decimate 2, but not all the same ones;
+  // over 720 tags of 24-36 px tilted up to 70 degrees it missed 11 that
+  // libapriltag found, all with modules of 3.23 px or less.
+  // Off, smaller tags or another family: libapriltag on the whole band.
   bool entry_band_candidates = true;
+  double entry_band_candidates_min_module_px = 3.5;
   // A border gets a band where the content flows in by at least this much
   // per frame somewhere along it; slower borders (and a still camera) are
   // left to the full-frame passes, which a tag takes many frames to escape.
@@ -122,6 +128,7 @@ class TagTracker {
     cv::Rect area;
     bool band = false;
     bool coarse = false;              // at the detector's decimation (bands always)
+    bool by_candidates = false;       // a band searched by candidates (BandCandidates)
     std::vector<TagDetection> found;  // frame coordinates, unrefined
   };
 
@@ -132,7 +139,8 @@ class TagTracker {
                               Search* band) const;
   std::map<TagId, QuadCorners> Predict(FrameId frame, const std::map<TagId, QuadCorners>& predicted) const;
   void AddEntryBands(const cv::Size& image, std::vector<Search>* searches) const;
-  Result<DetectionSet> DetectFullFrame(const cv::Mat& gray8, FrameId frame);
+  Result<DetectionSet> DetectFullFrame(const cv::Mat& gray8, FrameId frame,
+                                       const std::map<TagId, QuadCorners>& expected);
   void Update(const DetectionSet& detections);
 
   TagTrackerOptions options_;
