@@ -76,6 +76,8 @@ nlohmann::json RunMode(const tagsfm::SyntheticScene& scene, double tag_size, boo
           {"cpu_p95_frames_900_1000_ms", Percentile(slice(cpu_ms, 900, 1000), 0.95)},
           {"registered_frames", registered},
           {"targets_mapped", result.tags.size()},
+          {"tags_remapped", result.tags_remapped},
+          {"outlier_observations", result.outlier_observations},
           {"reprojection_rms_px", result.reprojection_rms_px},
           {"finish_s", finish_s},
           {"global_adjustment_s", result.global_adjustment_s},

@@ -1,5 +1,6 @@
 #include "tagsfm/recon/bundle_adjuster.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 
@@ -103,6 +104,19 @@ void SlidingWindowBundleAdjuster::AddTag(MapTag* tag) {
   for (FrameState* frame : window_) {
     const TagObservation* obs = frame->Find(tag->id);
     if (obs && !obs->outlier) AddObservation(frame, *obs, tag);
+  }
+}
+
+void SlidingWindowBundleAdjuster::ReplaceTag(MapTag* tag, const std::vector<FrameState*>& fitted) {
+  if (tags_in_problem_.erase(tag->id) > 0) problem_->RemoveParameterBlock(tag->world_from_tag.data);  // and its residuals
+  residuals_per_tag_.erase(tag->id);
+  for (auto& [frame, ids] : tags_per_frame_) ids.erase(std::remove(ids.begin(), ids.end(), tag->id), ids.end());
+  for (FrameState* frame : window_) {
+    for (TagObservation& obs : frame->tags) {
+      if (obs.id != tag->id) continue;
+      obs.outlier = std::find(fitted.begin(), fitted.end(), frame) == fitted.end();
+      if (!obs.outlier) AddObservation(frame, obs, tag);
+    }
   }
 }
 

@@ -14,6 +14,7 @@ Status ReconstructorOptions::Check() const {
   if (!(min_tag_view_angle_deg >= 0)) return MakeError("recon.min_tag_view_angle_deg must be >= 0");
   if (max_pending_views < 1) return MakeError("recon.max_pending_views must be >= 1");
   if (!(max_tag_init_rms_px > 0)) return MakeError("recon.max_tag_init_rms_px must be > 0");
+  if (remap_after_outlier_frames < 1) return MakeError("recon.remap_after_outlier_frames must be >= 1");
   if (bootstrap_max_frames < 1) return MakeError("recon.bootstrap_max_frames must be >= 1");
   if (!(bootstrap_min_angle_deg >= 0)) return MakeError("recon.bootstrap_min_angle_deg must be >= 0");
   if (!(keyframe_min_translation_ratio >= 0)) return MakeError("recon.keyframe_min_translation_ratio must be >= 0");
@@ -282,6 +283,7 @@ void Reconstructor::Register(FrameState& frame, bool adjust, FrameReport* report
   for (int i : pose.inliers) inlier[i] = true;
   for (size_t t = 0; t < used.size(); ++t) {
     for (int k = 0; k < 4; ++k) used[t]->outlier = used[t]->outlier || !inlier[4 * t + k];
+    if (used[t]->outlier) report->outlier_tags.push_back(used[t]->id);
   }
   frame.registered = true;
   frame.reason.clear();
@@ -293,6 +295,7 @@ void Reconstructor::Register(FrameState& frame, bool adjust, FrameReport* report
   if (!last_registered_ || last_registered_->frame <= frame.frame) last_registered_ = &frame;
   if (!adjust) return;
 
+  report->remapped_tags = RemapDisagreeingTags(frame);
   std::vector<TagId> added;
   report->tags_added = MapPendingTags(frame, &added);
   if (IsKeyframe(frame, !added.empty())) {
@@ -391,6 +394,41 @@ int Reconstructor::MapPendingTags(FrameState& frame, std::vector<TagId>* added) 
     added->push_back(obs.id);
   }
   return static_cast<int>(added->size());
+}
+
+std::vector<TagId> Reconstructor::RemapDisagreeingTags(FrameState& frame) {
+  std::vector<TagId> moved;
+  for (const auto& obs : frame.tags) {
+    auto tag = tags_.find(obs.id);
+    if (tag == tags_.end() || tag->second.known || tag->second.anchor) continue;
+    std::vector<FrameState*>& run = outlier_runs_[obs.id];
+    if (!obs.outlier) {
+      run.clear();
+      continue;
+    }
+    run.push_back(&frame);
+    if (static_cast<int>(run.size()) < options_.remap_after_outlier_frames) continue;
+    std::vector<TagView> views;
+    for (const FrameState* f : run) views.push_back({f, f->Find(obs.id)});
+    const MapTag& mapped = tag->second;
+    const auto init = InitializeTag(views, mapped.size_m, fx_, fy_);
+    const double now_rms = TagPoseRmsPx(mapped.world_from_tag.ToRigid(), mapped.size_m, views, fx_, fy_);
+    // Only a pose that fits these views as a new tag must, and fits them
+    // better than the mapped one; else the run goes on growing (bounded).
+    if (init && init->rms_px <= TagInitLimitPx() && !(now_rms <= init->rms_px)) {
+      tag->second.world_from_tag.Set(init->world_from_tag);
+      for (FrameState* f : run) {
+        for (TagObservation& o : f->tags) o.outlier = o.outlier && o.id != obs.id;
+      }
+      window_->ReplaceTag(&tag->second, run);
+      moved.push_back(obs.id);
+      run.clear();
+    } else if (static_cast<int>(run.size()) > 4 * options_.remap_after_outlier_frames) {
+      run.erase(run.begin());
+    }
+  }
+  tags_remapped_ += static_cast<int>(moved.size());
+  return moved;
 }
 
 std::vector<TagId> Reconstructor::MapPendingTagsNow(const FrameState& frame) {
@@ -531,6 +569,7 @@ ReconstructionResult Reconstructor::Finish() {
       if (frame.registered) registered.push_back(&frame);
     }
   }
+  result.tags_remapped = tags_remapped_;
   if (options_.final_adjustment && !registered.empty()) {
     result.outlier_observations = FlagOutlierObservations(registered);
     const bool refine = options_.refine_intrinsics && camera_.kind == CameraModel::Kind::kPinhole &&

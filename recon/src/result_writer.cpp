@@ -95,6 +95,7 @@ Status WriteReport(const std::filesystem::path& path, const ReconstructionResult
   report["feature_points"] = result.feature_points.size();
   report["observations"] = result.observations;
   report["outlier_observations"] = result.outlier_observations;  // tag views left out of the adjustment
+  report["tags_remapped"] = result.tags_remapped;                // learned tags mapped again while running
   // All observations: target corners and feature points together.
   double sum_sq = result.reprojection_rms_px * result.reprojection_rms_px * result.observations;
   double feature_sum_sq = 0;

@@ -1,6 +1,7 @@
 #include "tagsfm/recon/reconstructor.h"
 
 #include <algorithm>
+#include <map>
 
 #include <gtest/gtest.h>
 
@@ -160,6 +161,66 @@ TEST(Reconstructor, PoseChecksFollowTheMeasuredCornerNoise) {
   EXPECT_LT(Median(rotation), 30 * 0.04);
   // 3 px per axis: 2D RMS ~4.2 px, less the 6 pose parameters' share.
   EXPECT_NEAR(result.reprojection_rms_px, 4.2, 0.5);
+}
+
+// A learned target that no longer fits the map (here one bumped 2 cm along
+// its face at frame 20; likewise one mapped on the wrong side of its planar
+// ambiguity, or before loop drift came to light) is an outlier in every
+// frame after. Left so, it would stay out of every adjustment for good. It is
+// mapped again from the frames that disagreed, after
+// remap_after_outlier_frames of them, and then fits the frames again.
+TEST(Reconstructor, BumpedTargetIsMappedAgain) {
+  SyntheticSceneOptions options;
+  options.frames = 60;
+  options.smooth_path = true;
+  options.arc_deg = 60;
+  options.noise_px = 0.1;
+  SyntheticScene scene = MakeSyntheticBoxScene(options);
+  const int bump_frame = 20;
+  // The tag seen in the most frames both before and after the bump.
+  std::map<TagId, std::pair<int, int>> seen;
+  for (int i = 0; i < options.frames; ++i) {
+    for (const TagDetection& tag : scene.detections[static_cast<size_t>(i)].tags) {
+      (i < bump_frame ? seen[tag.id].first : seen[tag.id].second)++;
+    }
+  }
+  TagId bumped = -1;
+  int best = 0;
+  for (const auto& [id, counts] : seen) {
+    if (std::min(counts.first, counts.second) > best) best = std::min(counts.first, counts.second), bumped = id;
+  }
+  ASSERT_GE(best, 10);
+  const TagCorners& corners = scene.targets.at(bumped);
+  const Eigen::Vector3d shift = 0.02 * (corners[1] - corners[0]).normalized();
+  for (int i = bump_frame; i < options.frames; ++i) {
+    for (TagDetection& tag : scene.detections[static_cast<size_t>(i)].tags) {
+      if (tag.id != bumped) continue;
+      for (int k = 0; k < 4; ++k) {
+        tag.corners[k] += scene.camera.Project(scene.cam_from_world[static_cast<size_t>(i)] * (corners[k] + shift)) -
+                          scene.camera.Project(scene.cam_from_world[static_cast<size_t>(i)] * corners[k]);
+      }
+    }
+  }
+  std::vector<FrameReport> reports;
+  const ReconstructionResult result = RunScene(scene, BoxTargets(options), std::nullopt, &reports);
+  const auto has = [bumped](const std::vector<TagId>& ids) { return std::count(ids.begin(), ids.end(), bumped) > 0; };
+  int remapped_at = -1, times_remapped = 0, outlier_frames_before = 0, outlier_frames_after = 0;
+  for (int i = bump_frame; i < options.frames; ++i) {
+    const FrameReport& r = reports[static_cast<size_t>(i)];
+    if (has(r.remapped_tags)) {
+      ++times_remapped;
+      if (remapped_at < 0) remapped_at = i;
+    } else if (has(r.outlier_tags)) {
+      (remapped_at < 0 ? outlier_frames_before : outlier_frames_after)++;
+    }
+  }
+  // An outlier in the registered frames from the bump on (it is in view in
+  // all of them), mapped again on the third; an inlier from then on.
+  EXPECT_EQ(remapped_at, bump_frame + 2);
+  EXPECT_EQ(outlier_frames_before, 2);
+  EXPECT_EQ(outlier_frames_after, 0);
+  EXPECT_EQ(times_remapped, 1);
+  EXPECT_EQ(result.Poses().size(), static_cast<size_t>(options.frames));
 }
 
 TEST(Reconstructor, FrameWithoutTagsIsUnregisteredWithReason) {

@@ -50,6 +50,11 @@ class SlidingWindowBundleAdjuster {
   void AddKeyframe(FrameState* frame, std::map<TagId, MapTag>* tags);
   // A tag just put into the map: adds the window keyframes' observations of it.
   void AddTag(MapTag* tag);
+  // A tag mapped again from `fitted` views (Reconstructor's remapping): its
+  // residuals leave the window; the window keyframes among `fitted` add
+  // theirs back, the others' views of it become outliers (they saw it where
+  // it no longer is, or they would pull it back to where it was mapped wrong).
+  void ReplaceTag(MapTag* tag, const std::vector<FrameState*>& fitted);
   // Solves the window (a few LM iterations). Skipped, returning false, when
   // no tag in the window is free (poses alone are what PnP already refined).
   bool Solve();

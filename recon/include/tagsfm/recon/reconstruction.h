@@ -94,6 +94,7 @@ struct ReconstructionResult {
   double reprojection_rms_px = 0;            // all observations of mapped tags in registered frames
   int observations = 0;
   int outlier_observations = 0;              // tag views left out (TagObservation::outlier)
+  int tags_remapped = 0;                     // learned tags mapped again while running (disagreed with the frames)
   std::map<std::string, int> pose_method_counts;  // "epnp", "sqpnp", "ippe", "fallback", ...
   std::optional<TagId> anchor_tag;           // the tag that fixes the world frame (no known map)
   bool global_adjustment_converged = false;

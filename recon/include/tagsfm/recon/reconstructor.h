@@ -27,6 +27,12 @@ struct ReconstructorOptions {
   double min_tag_view_angle_deg = 3.0;
   int max_pending_views = 8;
   double max_tag_init_rms_px = 2.0;
+  // A learned tag that is an outlier in this many registered frames in a
+  // row (the frames' poses come from the other tags) is mapped again from
+  // those views: a tag put into the map on the wrong side of its planar
+  // ambiguity, or from views too alike, is otherwise left out of every
+  // adjustment from then on and never mended.
+  int remap_after_outlier_frames = 3;
   // Without a map: frames kept while waiting for two views that share two
   // tags from this angle apart; after that many, one view starts the map.
   int bootstrap_max_frames = 10;
@@ -53,7 +59,9 @@ struct FrameReport {
   double rms_px = 0;
   int tags_seen = 0;
   int tags_used = 0;      // mapped tags the pose was computed from
+  std::vector<TagId> outlier_tags;  // of those, the tags whose corners disagreed with the pose (left out)
   int tags_added = 0;     // tags this frame put into the map
+  std::vector<TagId> remapped_tags;  // mapped tags this frame put elsewhere (remap_after_outlier_frames)
   bool keyframe = false;
   size_t mapped_tags = 0;
 };
@@ -89,6 +97,9 @@ class Reconstructor {
   int MapPendingTags(FrameState& frame, std::vector<TagId>* added);
   // Maps the frame's pending tags from the views they have, however few.
   std::vector<TagId> MapPendingTagsNow(const FrameState& frame);
+  // Maps again the learned tags that this frame and the ones before it
+  // found to be outliers; returns those that moved.
+  std::vector<TagId> RemapDisagreeingTags(FrameState& frame);
   bool IsKeyframe(const FrameState& frame, bool added_tags) const;
   std::optional<Rigid3d> PreviousPose(const FrameState& frame) const;
   void CountMethod(const FrameState& frame);
@@ -109,6 +120,9 @@ class Reconstructor {
   std::deque<FrameState> frames_;                 // stable addresses: the adjuster points into them
   std::map<TagId, MapTag> tags_;
   std::map<TagId, std::vector<FrameState*>> pending_;  // unmapped tags' registered views
+  // Learned tags' latest run of registered frames in which they were outliers.
+  std::map<TagId, std::vector<FrameState*>> outlier_runs_;
+  int tags_remapped_ = 0;
   std::vector<FrameState*> bootstrap_buffer_;
   bool started_ = false;                          // the map exists (known, or bootstrapped)
   std::optional<TagId> anchor_;
