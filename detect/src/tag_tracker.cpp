@@ -380,6 +380,20 @@ Status TagTracker::SearchBandCandidates(const cv::Mat& gray8, FrameId frame, con
   return Status::Ok();
 }
 
+// One tracked tag searched in its region at region_quad_decimate (on the
+// caller's thread: no job runs now), appended to `found` if there.
+Status TagTracker::SearchFine(const cv::Mat& gray8, FrameId frame, TagId id, const QuadCorners& corners,
+                              std::vector<TagDetection>* found) {
+  Search region{RegionOf(corners, options_, gray8.size()), false, false, false, {}};
+  if (region.area.area() <= 0) return Status::Ok();
+  ++stats_.region_detections;
+  if (Status status = SearchArea(gray8, frame, 0, &region); !status) return status;
+  for (TagDetection& tag : region.found) {
+    if (tag.id == id) found->push_back(std::move(tag));
+  }
+  return Status::Ok();
+}
+
 // A full-frame detection, plus the tracked tags it missed that their
 // regions still find. Regions of small tags run at region_quad_decimate and
 // find tags the full frame (at the detector's decimation) misses; a
@@ -396,17 +410,9 @@ Result<DetectionSet> TagTracker::DetectFullFrame(const cv::Mat& gray8, FrameId f
   std::set<TagId> found;
   for (const TagDetection& tag : detections->tags) found.insert(tag.id);
   std::vector<TagDetection> kept;
-  const int modules = full_detector_->ModulesAcrossCornerSquare();
   for (const auto& [id, corners] : expected) {
     if (found.count(id) || !WhollyInside(corners, gray8.size(), 1.0 + ExtentOf(corners) / 8.0)) continue;
-    Search region{RegionOf(corners, options_, gray8.size()), false,
-                  ModulePx(corners, modules) >= options_.region_coarse_module_px, false, {}};
-    if (region.area.area() <= 0) continue;
-    ++stats_.region_detections;
-    if (Status status = SearchArea(gray8, frame, 0, &region); !status) return status.error();  // no job runs now
-    for (TagDetection& tag : region.found) {
-      if (tag.id == id) kept.push_back(std::move(tag));
-    }
+    if (Status status = SearchFine(gray8, frame, id, corners, &kept); !status) return status.error();
   }
   if (!kept.empty()) {
     full_detector_->RefineDetections(gray8, &kept);
@@ -484,13 +490,21 @@ Result<DetectionSet> TagTracker::Track(const cv::Mat& gray8, FrameId frame,
       }
     }
   }
-  // A tag expected wholly in view but not found: the prediction failed (or
-  // the tag is hidden). Only a full-frame detection tells which, so run one
-  // now. A tag predicted across the border (its white quiet zone, about an
-  // eighth of its extent, included) has left the view: no search.
+  // A tag expected wholly in view but not found: a region at the
+  // detector's decimation misses some strongly tilted tags that
+  // region_quad_decimate finds (tilt 70 degrees: up to 4.4 px modules), so
+  // first look again there; else the prediction failed (or the tag is
+  // hidden). Only a full-frame detection tells which, so run one now. A tag
+  // predicted across the border (its white quiet zone, about an eighth of
+  // its extent, included) has left the view: no search.
   bool lost = false;
   for (const auto& [id, corners] : expected) {
-    if (!found_ids.count(id) && WhollyInside(corners, gray8.size(), 1.0 + ExtentOf(corners) / 8.0)) lost = true;
+    if (found_ids.count(id) || !WhollyInside(corners, gray8.size(), 1.0 + ExtentOf(corners) / 8.0)) continue;
+    const size_t before = result.tags.size();
+    if (ModulePx(corners, modules) >= options_.region_coarse_module_px) {
+      if (Status status = SearchFine(gray8, frame, id, corners, &result.tags); !status) return status.error();
+    }
+    if (result.tags.size() == before) lost = true;
   }
   if (lost) {
     ++stats_.recoveries;
