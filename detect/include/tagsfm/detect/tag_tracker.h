@@ -7,10 +7,11 @@
 // regions around the predictions, and the detections are shifted back into
 // the frame. New tags: on every frame, bands along the image borders across
 // which the image content flows in (the flow fitted to the tracked tags'
-// last motion) are searched at the full-frame decimation, so that a tag
-// entering the view is found on the first frame it is wholly inside, as a
-// full-frame detection would find it; only tags not tracked already are kept
-// from the bands. A full-frame detection runs every `full_frame_every` frames
+// last motion) are searched (by aruco candidates confirmed by libapriltag,
+// or by libapriltag at the full-frame decimation), so that a tag entering
+// the view is found on the first frame it is wholly inside, as a full-frame
+// detection would find it; only tags not tracked already are kept from the
+// bands. A full-frame detection runs every `full_frame_every` frames
 // (tags appearing inside the view, e.g. from behind an occluder), and at once
 // on a frame where a predicted tag that should be wholly in view is not found
 // in its region, so that a tag is never lost to a bad prediction. Regions and
@@ -66,7 +67,7 @@ struct TagTrackerOptions {
   // smallest tag in view has modules (mean side over modules across) of
   // entry_band_candidates_min_module_px or more: aruco finds more small
   // tags than libapriltag at quad_decimate 2, but not all the same ones;
-  // over 720 tags of 24-36 px tilted up to 70 degrees it missed 11 that
+  // over 720 tags of 24-36 px tilted up to 70 degrees it missed 9 that
   // libapriltag found, all with modules of 3.23 px or less.
   // Off, smaller tags or another family: libapriltag on the whole band.
   bool entry_band_candidates = true;
