@@ -29,6 +29,7 @@
 #include <nlohmann/json.hpp>
 #include <opencv2/aruco.hpp>
 
+#include "tagsfm/detect/apriltag_worker_pool.h"
 #include "tagsfm/detect/synthetic_tags.h"
 #include "tagsfm/detect/tag_detector.h"
 #include "tagsfm/detect/tag_layout.h"
@@ -94,6 +95,7 @@ std::function<std::vector<int>(const cv::Mat&, int)> PlainAprilTag(int threads, 
   apriltag_detector_add_family(td, family);
   if (threads > 0) td->nthreads = threads;
   if (decimate > 0) td->quad_decimate = decimate;
+  tagsfm::StartAprilTagWorkerPool(td);  // libapriltag 3.3's first threaded run races with its threads' start
   *keep = std::shared_ptr<void>(td, [family](void* p) {
     apriltag_detector_destroy(static_cast<apriltag_detector_t*>(p));
     tag36h11_destroy(family);

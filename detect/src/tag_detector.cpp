@@ -8,6 +8,7 @@
 #include <apriltag/apriltag.h>
 
 #include "apriltag_family.h"
+#include "tagsfm/detect/apriltag_worker_pool.h"
 #include "tag_detector_workers.h"
 #include "tagsfm/detect/corner_refinement.h"
 #include "tagsfm/detect/tag_layout.h"
@@ -40,6 +41,7 @@ class AprilTagDetector final : public TagDetector {
     td->refine_edges = options_.refine_edges || options_.refinement == CornerRefinement::kAprilTag;
     td->decode_sharpening = options_.decode_sharpening;
     apriltag_detector_add_family_bits(td, family_.get(), options_.max_hamming);
+    StartAprilTagWorkerPool(td);  // libapriltag 3.3's first threaded run races with its threads' start
   }
 
   ~AprilTagDetector() override {
