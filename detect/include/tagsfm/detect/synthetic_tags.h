@@ -28,8 +28,8 @@ struct TagRenderOptions {
   double blur_sigma_px = 0.0;  // Gaussian optical blur, applied before the pixels integrate
   // With blur: the scene is drawn this many times finer, blurred there and
   // block-averaged, so that the blur acts before the pixel's area as in a
-  // camera. 1: blur the area-averaged pixels (cheaper, not physical below
-  // ~1 px of blur; what `tagsfm synth` does).
+  // camera (as `tagsfm synth` does). 1: blur the area-averaged pixels
+  // (cheaper, not physical below ~1 px of blur).
   int blur_oversample = 4;
   double noise_sigma = 0.0;    // Gaussian noise, grey levels
   double black = 30.0;         // grey levels of the tag's black and white
