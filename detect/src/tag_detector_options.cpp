@@ -47,6 +47,9 @@ Status TagDetectorOptions::Check() const {
   if (max_hamming < 0 || max_hamming > 2) {
     return MakeError("max_hamming must be in [0, 2] (got " + std::to_string(max_hamming) + ")");
   }
+  if (!(small_tag_min_margin >= 0.0 && small_tag_min_margin < 0.5)) {
+    return MakeError("small_tag_min_margin must be in [0, 0.5) (got " + std::to_string(small_tag_min_margin) + ")");
+  }
   return Status::Ok();
 }
 

@@ -221,39 +221,112 @@ TEST(RealData, AprilTagTestDataIdsAndCorners) {
 }
 
 // swatbotics mapping: "IMG_xxxx.JPG id id ..." per line. No id that is not
-// listed may ever appear. Recall: the issue asks for 100%; measured at
-// quad_decimate 1: 227/236 (missed: tags in IMG_1409, 1415, 1428, 1450,
-// 1451; no libapriltag setting tried finds them: see docs/detection.md), at
-// the default quad_decimate 2: 216/236. This pins the measured recall.
+// listed may ever appear, with or without the small-tag pass (which reads
+// with margin 0 here too: the most permissive). Recall: the issue asks for
+// 100%; measured at quad_decimate 1: 227/236 by libapriltag alone (missed:
+// tags of ~2 px modules in IMG_1409, 1415, 1428, 1450, 1451; no libapriltag
+// setting tried finds them: see docs/detection.md), 232/236 with the
+// small-tag pass (still missed: IMG_1409 11, 13, IMG_1451 7, 9), at the
+// default quad_decimate 2: 216/236. This pins the measured recall.
 TEST(RealDataSlow, SwatboticsMappingRecall) {
   TAGSFM_REQUIRE_SHARED_DATA("swatbotics-mapping/images/mapping_feb_2014");
   const fs::path dir = SharedDataDir() / "swatbotics-mapping/images/mapping_feb_2014";
-  std::ifstream in(dir / "groundtruth.txt");
-  TagDetectorOptions options;
-  options.quad_decimate = 1.0f;
-  auto detector = TagDetector::Create(options);
-  ASSERT_TRUE(detector.has_value());
-  std::string line;
-  int images = 0, expected_tags = 0, found_tags = 0, extra_tags = 0;
-  while (std::getline(in, line)) {
-    std::istringstream fields(line);
-    std::string name;
-    if (!(fields >> name)) continue;
-    std::set<TagId> expected;
-    for (TagId id; fields >> id;) expected.insert(id);
-    auto found = (*detector)->Detect(LoadGray(dir / name), images++);
-    ASSERT_TRUE(found.has_value()) << name;
-    std::set<TagId> ids;
-    for (const auto& t : found->tags) ids.insert(t.id);
-    for (TagId id : ids) EXPECT_TRUE(expected.count(id)) << name << ": id " << id << " is not there";
-    expected_tags += static_cast<int>(expected.size());
-    for (TagId id : ids) (expected.count(id) ? found_tags : extra_tags)++;
+  struct Setting {
+    bool small_tag_pass;
+    double min_margin;
+    int min_found;
+  };
+  for (const Setting setting : {Setting{false, 0.02, 227}, Setting{true, 0.02, 232}, Setting{true, 0.0, 232}}) {
+    std::ifstream in(dir / "groundtruth.txt");
+    TagDetectorOptions options;
+    options.quad_decimate = 1.0f;
+    options.small_tag_pass = setting.small_tag_pass;
+    options.small_tag_min_margin = setting.min_margin;
+    auto detector = TagDetector::Create(options);
+    ASSERT_TRUE(detector.has_value());
+    std::string line;
+    int images = 0, expected_tags = 0, found_tags = 0, extra_tags = 0;
+    while (std::getline(in, line)) {
+      std::istringstream fields(line);
+      std::string name;
+      if (!(fields >> name)) continue;
+      std::set<TagId> expected;
+      for (TagId id; fields >> id;) expected.insert(id);
+      auto found = (*detector)->Detect(LoadGray(dir / name), images++);
+      ASSERT_TRUE(found.has_value()) << name;
+      std::set<TagId> ids;
+      for (const auto& t : found->tags) ids.insert(t.id);
+      for (TagId id : ids) EXPECT_TRUE(expected.count(id)) << name << ": id " << id << " is not there";
+      expected_tags += static_cast<int>(expected.size());
+      for (TagId id : ids) (expected.count(id) ? found_tags : extra_tags)++;
+      for (TagId id : expected) {
+        if (!ids.count(id)) std::printf("  missed %s %d\n", name.c_str(), id);
+      }
+    }
+    std::printf("swatbotics, small_tag_pass %d (margin %.2f): %d images, %d/%d listed tags found, %d extra\n",
+                setting.small_tag_pass, setting.min_margin, images, found_tags, expected_tags, extra_tags);
+    EXPECT_EQ(images, 72);
+    EXPECT_EQ(extra_tags, 0);
+    EXPECT_GE(found_tags, setting.min_found);
   }
-  std::printf("swatbotics: %d images, %d/%d listed tags found, %d extra\n", images, found_tags, expected_tags,
-              extra_tags);
-  EXPECT_EQ(images, 72);
-  EXPECT_EQ(extra_tags, 0);
-  EXPECT_GE(found_tags, 227);
+}
+
+// The small-tag pass on the synth renderer's recordings: every tag it adds
+// is in front of the camera and within 1 px (each corner) of its projected
+// truth, the first pass's tags are unchanged.
+TEST(RealDataSlow, SmallTagPassOnRecordingsAddsNoFalseTag) {
+  int added = 0, checked_frames = 0;
+  for (const std::string name : {"wall_small", "box_small", "box_photos"}) {
+    const fs::path dir = testing::RecordingsDir() / name;
+    if (!fs::exists(dir / "ground_truth")) continue;
+    auto reader = RecordingReader::Open(dir);
+    ASSERT_TRUE(reader.has_value()) << name;
+    auto targets = ReadTargetsCsv(dir / "ground_truth/targets.csv");
+    auto poses = ReadPosesCsv(dir / "ground_truth/poses.csv");
+    ASSERT_TRUE(targets.has_value() && poses.has_value() && reader->info().camera) << name;
+    const CameraModel& camera = *reader->info().camera;
+    for (float decimate : {1.0f, 2.0f}) {
+      TagDetectorOptions options;
+      options.family = reader->info().targets.family;
+      options.quad_decimate = decimate;
+      auto plain = TagDetector::Create(options);
+      options.small_tag_pass = true;
+      options.small_tag_min_margin = 0.0;  // the most permissive reading
+      auto with_pass = TagDetector::Create(options);
+      ASSERT_TRUE(plain.has_value() && with_pass.has_value());
+      for (size_t i = 0; i < reader->entries().size(); ++i) {
+        auto frame = reader->LoadFrame(i);
+        ASSERT_TRUE(frame.has_value());
+        const auto pose = poses->find(frame->index);
+        if (pose == poses->end()) continue;
+        auto a = (*plain)->Detect(frame->gray, frame->index);
+        auto b = (*with_pass)->Detect(frame->gray, frame->index);
+        ASSERT_TRUE(a.has_value() && b.has_value());
+        ++checked_frames;
+        std::map<TagId, decltype(TagDetection::corners)> first;
+        for (const auto& t : a->tags) first[t.id] = t.corners;
+        for (const auto& t : b->tags) {
+          const auto f = first.find(t.id);
+          if (f != first.end()) {
+            for (int k = 0; k < 4; ++k) EXPECT_EQ(t.corners[k], f->second[k]) << name << " frame " << i;
+            continue;
+          }
+          ++added;
+          const auto target = targets->find(t.id);
+          ASSERT_TRUE(target != targets->end()) << name << " frame " << i << ": id " << t.id << " is not a target";
+          for (int k = 0; k < 4; ++k) {
+            const Eigen::Vector3d in_cam = pose->second * target->second[k];
+            ASSERT_GT(in_cam.z(), 0.05) << name << " frame " << i << ": id " << t.id << " is behind the camera";
+            EXPECT_LT((camera.Project(in_cam) - t.corners[k]).norm(), 1.0)
+                << name << " frame " << i << ": id " << t.id << " corner " << k << " at " << t.corners[k].transpose()
+                << " truth " << camera.Project(in_cam).transpose() << " decimate " << decimate << " tags " << b->tags.size()
+                << " margin " << t.decision_margin;
+          }
+        }
+      }
+    }
+  }
+  std::printf("small-tag pass on the recordings: %d frames (x2 decimations), %d tags added\n", checked_frames, added);
 }
 
 // A NumPy .npy file of float64 (little-endian, C order): its shape and values.

@@ -35,6 +35,18 @@ struct TagDetectorOptions {
   double min_decision_margin = 30.0;  // reject weaker decodes
   int max_hamming = 0;                // reject decodes with more bit errors (0..2; also
                                       // the bits libapriltag tries to correct)
+  // A second pass for tags libapriltag's segmentation misses (about 2 px
+  // modules, see docs/detection.md): OpenCV aruco's quad candidates, read
+  // by tagsfm's own sampling, refined like any tag and read again: only an
+  // exact code with every border module dark, every module of the white
+  // ring around it light and every bit at least small_tag_min_margin (of
+  // the local black-white contrast) from the threshold counts. Only ids the
+  // first pass did not find, refined successfully; off by default (costs
+  // ~8-11 ms CPU per frame at 816x612-1280x720, about as much as the
+  // quad_decimate 2 detection itself). With refinement none or apriltag the
+  // added tags keep aruco's corners (contour pixels, up to ~1.5 px off).
+  bool small_tag_pass = false;
+  double small_tag_min_margin = 0.02;
 
   Status Check() const;  // names the wrong field
 };
