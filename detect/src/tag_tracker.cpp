@@ -13,6 +13,7 @@
 #include <Eigen/Dense>
 #include <opencv2/aruco.hpp>
 
+#include "aruco_dictionary.h"
 #include "tag_detector_workers.h"
 
 namespace tagsfm {
@@ -46,15 +47,10 @@ class BandCandidates {
  public:
   // Null when aruco has no dictionary for the family.
   static std::unique_ptr<BandCandidates> Create(const std::string& family) {
-    static const std::map<std::string, cv::aruco::PREDEFINED_DICTIONARY_NAME> kDictionaries = {
-        {"tag36h11", cv::aruco::DICT_APRILTAG_36h11},
-        {"tag36h10", cv::aruco::DICT_APRILTAG_36h10},
-        {"tag25h9", cv::aruco::DICT_APRILTAG_25h9},
-        {"tag16h5", cv::aruco::DICT_APRILTAG_16h5}};
-    const auto it = kDictionaries.find(family);
-    if (it == kDictionaries.end()) return nullptr;
+    cv::Ptr<cv::aruco::Dictionary> dictionary = ArucoDictionaryFor(family);
+    if (!dictionary) return nullptr;
     auto candidates = std::unique_ptr<BandCandidates>(new BandCandidates);
-    candidates->dictionary_ = cv::aruco::getPredefinedDictionary(it->second);
+    candidates->dictionary_ = dictionary;
     candidates->parameters_ = cv::aruco::DetectorParameters::create();
     // A tag that has just entered may lie a pixel from the image's edge.
     candidates->parameters_->minDistanceToBorder = 1;
