@@ -179,14 +179,24 @@ void TagTracker::Update(const DetectionSet& detections) {
 namespace {
 
 // The padded, clipped bounding box of predicted corners; empty when off-image.
-cv::Rect RegionOf(const QuadCorners& corners, const TagTrackerOptions& options, const cv::Size& image) {
-  double x0 = 1e18, y0 = 1e18, x1 = -1e18, y1 = -1e18;
+// Bounding box of a quad: x0, y0, x1, y1.
+Eigen::Vector4d BoundsOf(const QuadCorners& corners) {
+  Eigen::Vector4d b(1e18, 1e18, -1e18, -1e18);
   for (const Eigen::Vector2d& c : corners) {
-    x0 = std::min(x0, c.x());
-    y0 = std::min(y0, c.y());
-    x1 = std::max(x1, c.x());
-    y1 = std::max(y1, c.y());
+    b = Eigen::Vector4d(std::min(b[0], c.x()), std::min(b[1], c.y()), std::max(b[2], c.x()), std::max(b[3], c.y()));
   }
+  return b;
+}
+
+// Extent of a quad: the larger side of its bounding box.
+double ExtentOf(const QuadCorners& corners) {
+  const Eigen::Vector4d b = BoundsOf(corners);
+  return std::max(b[2] - b[0], b[3] - b[1]);
+}
+
+cv::Rect RegionOf(const QuadCorners& corners, const TagTrackerOptions& options, const cv::Size& image) {
+  const Eigen::Vector4d b = BoundsOf(corners);
+  const double x0 = b[0], y0 = b[1], x1 = b[2], y1 = b[3];
   if (!(x1 >= x0 && y1 >= y0) || !std::isfinite(x0 + y0 + x1 + y1)) return {};
   const double pad = std::max(options.padding_px, options.padding_fraction * std::max(x1 - x0, y1 - y0));
   const int left = std::max(0, static_cast<int>(std::floor(x0 - pad)));
@@ -233,18 +243,6 @@ std::vector<Region> MergeOverlapping(std::vector<Region> regions) {
 
 namespace {
 
-// Extent of a quad: the larger side of its bounding box.
-double ExtentOf(const QuadCorners& corners) {
-  double x0 = 1e18, y0 = 1e18, x1 = -1e18, y1 = -1e18;
-  for (const Eigen::Vector2d& c : corners) {
-    x0 = std::min(x0, c.x());
-    y0 = std::min(y0, c.y());
-    x1 = std::max(x1, c.x());
-    y1 = std::max(y1, c.y());
-  }
-  return std::max(x1 - x0, y1 - y0);
-}
-
 // Whether a quad lies wholly inside the image, `margin` px clear of its border.
 bool WhollyInside(const QuadCorners& corners, const cv::Size& image, double margin) {
   for (const Eigen::Vector2d& c : corners) {
@@ -254,6 +252,12 @@ bool WhollyInside(const QuadCorners& corners, const cv::Size& image, double marg
     }
   }
   return true;
+}
+
+// A tag predicted wholly in view, its white quiet zone (about an eighth of
+// its extent) included: one that is not found there is lost.
+bool ExpectedInView(const QuadCorners& corners, const cv::Size& image) {
+  return WhollyInside(corners, image, 1.0 + ExtentOf(corners) / 8.0);
 }
 
 }  // namespace
@@ -356,15 +360,15 @@ Status TagTracker::SearchBandCandidates(const cv::Mat& gray8, FrameId frame, con
                                         int thread, Search* band) const {
   const Eigen::Vector2d offset(band->area.x, band->area.y);
   const int modules = full_detector_->ModulesAcrossCornerSquare();
+  // A candidate wholly inside a tracked region (its quiet zone included)
+  // is found there.
+  TagTrackerOptions unpadded = options_;
+  unpadded.padding_px = 2.0;
+  unpadded.padding_fraction = 0.125;
   for (QuadCorners corners : band_candidates_->Find(gray8(band->area))) {
     for (Eigen::Vector2d& c : corners) c += offset;
     Search candidate{RegionOf(corners, options_, gray8.size()), true, false, false, {}};
     if (candidate.area.area() <= 0) continue;
-    // A candidate wholly inside a tracked region (its quiet zone included)
-    // is found there.
-    TagTrackerOptions unpadded = options_;
-    unpadded.padding_px = 2.0;
-    unpadded.padding_fraction = 0.125;
     const cv::Rect tag_box = RegionOf(corners, unpadded, gray8.size());
     const bool in_region = std::any_of(regions.begin(), regions.end(),
                                        [&](const cv::Rect& region) { return (region & tag_box) == tag_box; });
@@ -407,7 +411,7 @@ Result<DetectionSet> TagTracker::DetectFullFrame(const cv::Mat& gray8, FrameId f
   for (const TagDetection& tag : detections->tags) found.insert(tag.id);
   std::vector<TagDetection> kept;
   for (const auto& [id, corners] : expected) {
-    if (found.count(id) || !WhollyInside(corners, gray8.size(), 1.0 + ExtentOf(corners) / 8.0)) continue;
+    if (found.count(id) || !ExpectedInView(corners, gray8.size())) continue;
     if (Status status = SearchFine(gray8, frame, id, corners, &kept); !status) return status.error();
   }
   if (!kept.empty()) {
@@ -495,7 +499,7 @@ Result<DetectionSet> TagTracker::Track(const cv::Mat& gray8, FrameId frame,
   // its extent, included) has left the view: no search.
   bool lost = false;
   for (const auto& [id, corners] : expected) {
-    if (found_ids.count(id) || !WhollyInside(corners, gray8.size(), 1.0 + ExtentOf(corners) / 8.0)) continue;
+    if (found_ids.count(id) || !ExpectedInView(corners, gray8.size())) continue;
     const size_t before = result.tags.size();
     if (ModulePx(corners, modules) >= options_.region_coarse_module_px) {
       if (Status status = SearchFine(gray8, frame, id, corners, &result.tags); !status) return status.error();
