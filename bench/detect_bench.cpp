@@ -238,6 +238,7 @@ int main(int argc, char** argv) {
     res["tracking_stats"] = {{"frames", stats.frames},
                              {"full_frame_detections", stats.full_frame_detections},
                              {"recoveries", stats.recoveries},
+                             {"backed_off", stats.backed_off},
                              {"region_detections", stats.region_detections},
                              {"band_detections", stats.band_detections},
                              {"tags_found_in_bands", stats.tags_found_in_bands},

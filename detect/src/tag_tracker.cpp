@@ -127,6 +127,8 @@ Result<std::unique_ptr<TagTracker>> TagTracker::Create(const TagDetectorOptions&
 void TagTracker::Reset() {
   tracks_.clear();
   have_full_ = false;
+  recoveries_in_a_row_ = 0;
+  full_frames_before_retry_ = 0;
 }
 
 std::map<TagId, QuadCorners> TagTracker::Predict(FrameId frame,
@@ -380,11 +382,12 @@ Status TagTracker::SearchBandCandidates(const cv::Mat& gray8, FrameId frame, con
   return Status::Ok();
 }
 
-// One tracked tag searched in its region at region_quad_decimate (on the
-// caller's thread: no job runs now), appended to `found` if there.
-Status TagTracker::SearchFine(const cv::Mat& gray8, FrameId frame, TagId id, const QuadCorners& corners,
-                              std::vector<TagDetection>* found) {
-  Search region{RegionOf(corners, options_, gray8.size()), false, false, false, {}};
+// One tracked tag searched in its region, at the detector's decimation
+// (`coarse`) or at region_quad_decimate (on the caller's thread: no job runs
+// now), appended to `found` if there.
+Status TagTracker::SearchAlone(const cv::Mat& gray8, FrameId frame, TagId id, const QuadCorners& corners, bool coarse,
+                               std::vector<TagDetection>* found) {
+  Search region{RegionOf(corners, options_, gray8.size()), false, coarse, false, {}};
   if (region.area.area() <= 0) return Status::Ok();
   ++stats_.region_detections;
   if (Status status = SearchArea(gray8, frame, 0, &region); !status) return status;
@@ -394,8 +397,8 @@ Status TagTracker::SearchFine(const cv::Mat& gray8, FrameId frame, TagId id, con
   return Status::Ok();
 }
 
-// A full-frame detection, plus the tracked tags it missed that their
-// regions still find. Regions of small tags run at region_quad_decimate and
+// A full-frame detection, plus the tracked tags (not the caller's hints) it
+// missed that their regions still find. Regions of small tags run at region_quad_decimate and
 // find tags the full frame (at the detector's decimation) misses; a
 // full-frame pass must not drop them (it did: 24 px tags, 7 of 244
 // sightings, TagTrackerSlow.SmallTagsEnterOnTime).
@@ -411,8 +414,8 @@ Result<DetectionSet> TagTracker::DetectFullFrame(const cv::Mat& gray8, FrameId f
   for (const TagDetection& tag : detections->tags) found.insert(tag.id);
   std::vector<TagDetection> kept;
   for (const auto& [id, corners] : expected) {
-    if (found.count(id) || !ExpectedInView(corners, gray8.size())) continue;
-    if (Status status = SearchFine(gray8, frame, id, corners, &kept); !status) return status.error();
+    if (found.count(id) || !tracks_.count(id) || !ExpectedInView(corners, gray8.size())) continue;
+    if (Status status = SearchAlone(gray8, frame, id, corners, false, &kept); !status) return status.error();
   }
   if (!kept.empty()) {
     full_detector_->RefineDetections(gray8, &kept);
@@ -428,8 +431,13 @@ Result<DetectionSet> TagTracker::Track(const cv::Mat& gray8, FrameId frame,
                                        const std::map<TagId, QuadCorners>& predicted) {
   ++stats_.frames;
   const bool scheduled = !have_full_ || frames_since_full_ + 1 >= options_.full_frame_every;
+  const bool backing_off = full_frames_before_retry_ > 0;
+  if (backing_off) {
+    --full_frames_before_retry_;
+    ++stats_.backed_off;
+  }
   const std::map<TagId, QuadCorners> expected = Predict(frame, predicted);
-  if (scheduled || expected.empty() || gray8.empty()) {
+  if (scheduled || backing_off || expected.empty() || gray8.empty()) {
     auto detections = DetectFullFrame(gray8, frame, expected);
     if (detections) Update(*detections);
     return detections;
@@ -496,22 +504,29 @@ Result<DetectionSet> TagTracker::Track(const cv::Mat& gray8, FrameId frame,
   // first look again there; else the prediction failed (or the tag is
   // hidden). Only a full-frame detection tells which, so run one now. A tag
   // predicted across the border (its white quiet zone, about an eighth of
-  // its extent, included) has left the view: no search.
+  // its extent, included) has left the view: no search. A tag the caller
+  // predicted but the last frame did not have (turning into view, behind an
+  // occluder) is a hint: searched, but not missed.
   bool lost = false;
   for (const auto& [id, corners] : expected) {
-    if (found_ids.count(id) || !ExpectedInView(corners, gray8.size())) continue;
+    if (found_ids.count(id) || !tracks_.count(id) || !ExpectedInView(corners, gray8.size())) continue;
     const size_t before = result.tags.size();
     if (ModulePx(corners, modules) >= options_.region_coarse_module_px) {
-      if (Status status = SearchFine(gray8, frame, id, corners, &result.tags); !status) return status.error();
+      if (Status status = SearchAlone(gray8, frame, id, corners, false, &result.tags); !status) return status.error();
     }
     if (result.tags.size() == before) lost = true;
   }
   if (lost) {
     ++stats_.recoveries;
+    if (options_.back_off_after_recovery) {
+      recoveries_in_a_row_ = std::min(recoveries_in_a_row_ + 1, 16);
+      full_frames_before_retry_ = std::min(options_.full_frame_every - 1, (1 << recoveries_in_a_row_) - 1);
+    }
     auto detections = DetectFullFrame(gray8, frame, expected);
     if (detections) Update(*detections);
     return detections;
   }
+  recoveries_in_a_row_ = 0;
   const auto refine_start = std::chrono::steady_clock::now();
   full_detector_->RefineDetections(gray8, &result.tags);
   stats_.refine_ms += MsSince(refine_start);

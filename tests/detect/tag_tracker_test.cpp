@@ -163,6 +163,72 @@ TEST(TagTracker, NewTagsAppearAtTheNextFullFrame) {
   EXPECT_EQ(first_complete, 5);  // the scheduled full-frame pass
 }
 
+TEST(TagTracker, PredictedNewTagsAreFoundAndMissingOnesAreNoLoss) {
+  const auto truth = VideoTruth();
+  TagTrackerOptions options;
+  options.full_frame_every = 1000;
+  auto tracker = TagTracker::Create(TagDetectorOptions{}, options);
+  ASSERT_TRUE(tracker.has_value());
+  // Frames 0-1 show half the tags; frame 2 all of them, with the other
+  // half predicted by the caller (as recon predicts mapped tags that turn
+  // into view), plus a tag that is not in the image at all.
+  TagRenderOptions render;
+  render.blur_sigma_px = 0.7;
+  const size_t half_count = truth[0].size() / 2;
+  std::vector<PlacedTag> half(truth[0].begin(), truth[0].begin() + static_cast<long>(half_count));
+  const cv::Mat half_view = *RenderTags("tag36h11", 640, 480, half, render);
+  ASSERT_TRUE((*tracker)->Track(half_view, 0).has_value());
+  ASSERT_TRUE((*tracker)->Track(half_view, 1).has_value());
+  std::map<TagId, QuadCorners> predicted;
+  for (size_t i = half_count; i < truth[0].size(); ++i) predicted[truth[0][i].id] = truth[0][i].corners;
+  std::set<TagId> all;
+  for (const PlacedTag& t : truth[0]) all.insert(t.id);
+  ASSERT_EQ(all.count(500), 0u);
+  predicted[500] = truth[0][0].corners;  // no tag 500 there: a hint that finds nothing
+  auto found = (*tracker)->Track(*RenderTags("tag36h11", 640, 480, truth[0], render), 2, predicted);
+  ASSERT_TRUE(found.has_value());
+  EXPECT_EQ(Ids(*found), all);
+  EXPECT_EQ((*tracker)->stats().full_frame_detections, 1);  // frame 0 only: no pass was needed
+  EXPECT_EQ((*tracker)->stats().recoveries, 0);
+  // A predicted tag that the last frame had (tracked) and that is gone is a loss.
+  auto lost = (*tracker)->Track(half_view, 3);
+  ASSERT_TRUE(lost.has_value());
+  EXPECT_EQ((*tracker)->stats().recoveries, 1);
+  EXPECT_EQ(Ids(*lost).size(), half_count);
+}
+
+// A photo set: nothing is where the last photo had it, so every prediction
+// fails. Tracking backs off to full frames (1, 3, 7, then 14 in a row between
+// attempts) and finds what a full-frame detection on each frame finds.
+TEST(TagTrackerSlow, PhotoSetBacksOffToFullFrames) {
+  auto tracker = TagTracker::Create(TagDetectorOptions{}, TagTrackerOptions{});
+  auto full = TagDetector::Create(TagDetectorOptions{});
+  ASSERT_TRUE(tracker.has_value() && full.has_value());
+  TagRenderOptions render;
+  render.blur_sigma_px = 0.7;
+  render.noise_sigma = 2.0;
+  const int frames = 24;
+  for (int f = 0; f < frames; ++f) {
+    render.seed = 300 + f;
+    // Other tags in every other photo (ids 0-9, 10-19): none is where the
+    // last photo had it.
+    std::vector<PlacedTag> tags = RandomTagPlacements(640, 480, 10, 40.0, 40.0, 900 + f);
+    for (PlacedTag& tag : tags) tag.id += 10 * (f % 2);
+    const cv::Mat image = *RenderTags("tag36h11", 640, 480, tags, render);
+    auto tracked = (*tracker)->Track(image, f);
+    auto detected = (*full)->Detect(image, f);
+    ASSERT_TRUE(tracked.has_value() && detected.has_value());
+    EXPECT_EQ(Ids(*tracked), Ids(*detected)) << "frame " << f;
+  }
+  const TagTrackerStats& stats = (*tracker)->stats();
+  // Attempts at frames 1, 3, 7, 15 (each a recovery), backed off between
+  // them: 1 + 3 + 7 + 8 (to the end) frames. Without the back-off every
+  // frame but the first would be an attempt and a recovery.
+  EXPECT_EQ(stats.full_frame_detections, frames);
+  EXPECT_EQ(stats.recoveries, 4);
+  EXPECT_EQ(stats.backed_off, frames - 1 - 4);
+}
+
 TEST(TagTracker, OptionsAreChecked) {
   TagTrackerOptions options;
   options.full_frame_every = 0;

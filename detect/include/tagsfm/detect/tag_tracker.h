@@ -14,7 +14,12 @@
 // bands. A full-frame detection runs every `full_frame_every` frames
 // (tags appearing inside the view, e.g. from behind an occluder), and at once
 // on a frame where a predicted tag that should be wholly in view is not found
-// in its region, so that a tag is never lost to a bad prediction. Regions and
+// in its region, so that a tag is never lost to a bad prediction. When the
+// predictions keep failing (a photo set, a camera jerked about: the tags move
+// too far between frames), tracking backs off: after n recoveries in a row
+// the next 2^n - 1 frames (at most full_frame_every - 1) are detected in full
+// before tracking is tried again, so that such input costs little more than a
+// full-frame detection on each frame. Regions and
 // bands are searched in parallel on the detector's threads and all tags are
 // refined in parallel.
 #include <map>
@@ -76,6 +81,8 @@ struct TagTrackerOptions {
   // per frame somewhere along it; slower borders (and a still camera) are
   // left to the full-frame passes, which a tag takes many frames to escape.
   double entry_min_inflow_px = 0.5;
+  // Back off after recoveries (see above). Off: every frame tries tracking.
+  bool back_off_after_recovery = true;
   Status Check() const;
 };
 
@@ -83,6 +90,7 @@ struct TagTrackerStats {
   int frames = 0;
   int full_frame_detections = 0;   // scheduled, first frame, or after a loss
   int recoveries = 0;              // full-frame detections caused by a lost tag
+  int backed_off = 0;              // full-frame detections while backing off after recoveries
   int region_detections = 0;       // libapriltag runs on regions
   int band_detections = 0;         // libapriltag runs on entry bands
   int tags_found_in_bands = 0;     // new tags the entry bands found
@@ -105,7 +113,10 @@ class TagTracker {
                                                     const TagTrackerOptions& tracker);
 
   // Detects the tags of the next frame. `predicted`: corners where the caller
-  // expects tags (they override the tracker's own prediction for those ids).
+  // expects tags (recon: the map projected with the extrapolated pose). They
+  // override the tracker's own prediction for those ids; a predicted tag the
+  // last frame did not have is searched, but not finding it is no loss (no
+  // full-frame pass follows): it may be hidden, or too oblique to decode.
   Result<DetectionSet> Track(const cv::Mat& gray8, FrameId frame,
                              const std::map<TagId, QuadCorners>& predicted = {});
 
@@ -139,8 +150,8 @@ class TagTracker {
   TagTracker(TagTrackerOptions options, std::unique_ptr<TagDetector> full, std::vector<ThreadDetectors> per_thread,
              std::unique_ptr<detail::BandCandidates> candidates);
   Status SearchArea(const cv::Mat& gray8, FrameId frame, int thread, Search* search) const;
-  Status SearchFine(const cv::Mat& gray8, FrameId frame, TagId id, const QuadCorners& corners,
-                    std::vector<TagDetection>* found);
+  Status SearchAlone(const cv::Mat& gray8, FrameId frame, TagId id, const QuadCorners& corners, bool coarse,
+                     std::vector<TagDetection>* found);
   Status SearchBandCandidates(const cv::Mat& gray8, FrameId frame, const std::vector<cv::Rect>& regions, int thread,
                               Search* band) const;
   std::map<TagId, QuadCorners> Predict(FrameId frame, const std::map<TagId, QuadCorners>& predicted) const;
@@ -158,6 +169,8 @@ class TagTracker {
   std::map<TagId, TagTrack> tracks_;
   int frames_since_full_ = 0;
   bool have_full_ = false;
+  int recoveries_in_a_row_ = 0;      // tracking attempts that ended in a recovery, since one did not
+  int full_frames_before_retry_ = 0;  // backing off: full-frame detections left before tracking again
   TagTrackerStats stats_;
 };
 
