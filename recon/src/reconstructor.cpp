@@ -88,6 +88,19 @@ std::optional<Rigid3d> Reconstructor::PreviousPose(const FrameState& frame) cons
   return nearest->cam_from_world.ToRigid();
 }
 
+std::map<TagId, QuadCorners> Reconstructor::PredictTagCorners(FrameId frame,
+                                                              const CornerPredictionOptions& options) const {
+  if (frames_.empty() || !frames_.back().registered || last_registered_ != &frames_.back()) return {};
+  const FrameState* before = nullptr;
+  for (auto it = frames_.rbegin() + 1; it != frames_.rend() && !before; ++it) {
+    if (it->registered && it->frame < last_registered_->frame) before = &*it;
+  }
+  const Rigid3d pose = ExtrapolatePose(
+      last_registered_->cam_from_world.ToRigid(), last_registered_->frame,
+      before ? std::optional<Rigid3d>(before->cam_from_world.ToRigid()) : std::nullopt, before ? before->frame : 0, frame);
+  return ProjectMappedTags(camera_, pose, tags_, options);
+}
+
 FrameReport Reconstructor::AddFrame(const DetectionSet& detections) {
   FrameState& frame = MakeFrameState(detections);
   FrameReport report;

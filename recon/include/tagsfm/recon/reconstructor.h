@@ -13,6 +13,7 @@
 #include "tagsfm/capture/recording.h"
 #include "tagsfm/detect/tag_detection.h"
 #include "tagsfm/recon/bundle_adjuster.h"
+#include "tagsfm/recon/corner_prediction.h"
 #include "tagsfm/recon/pose_estimator.h"
 #include "tagsfm/recon/reconstruction.h"
 
@@ -81,6 +82,13 @@ class Reconstructor {
   // Registers what can still be registered against the final map, adjusts
   // everything together and returns the result. Call once.
   ReconstructionResult Finish();
+
+  // Where the mapped tags will be in `frame` (a frame after the last one
+  // added): the map projected with the pose extrapolated from the last two
+  // registered frames (ProjectMappedTags, ExtrapolatePose). Empty before the
+  // map exists, or when the last frame added was not registered (no pose to
+  // go on).
+  std::map<TagId, QuadCorners> PredictTagCorners(FrameId frame, const CornerPredictionOptions& options = {}) const;
 
   size_t mapped_tags() const { return tags_.size(); }
   size_t frames() const { return frames_.size(); }
