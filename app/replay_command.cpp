@@ -7,6 +7,8 @@
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
+#include <functional>
+#include <map>
 #include <optional>
 #include <string>
 
@@ -34,6 +36,7 @@ struct ReplayArgs {
   bool no_targets = false;
   bool realtime = false;
   std::string dashboard = "127.0.0.1:8080";
+  std::string tag_search = TagSearchName(TagSearch::kTracking);
 };
 
 double MsSince(std::chrono::steady_clock::time_point start) {
@@ -108,9 +111,14 @@ int RunReplay(const ReplayArgs& args) {
   }
   if (known_map && !known_map->empty()) mode = "known map (" + std::to_string(known_map->size()) + " targets held fixed)";
 
-  auto detector = DetectorForRecording(info);
-  if (!detector) {
-    spdlog::error("recording.yaml: targets.family: {}", detector.error().message);
+  auto search = ParseTagSearch(args.tag_search);
+  if (!search) {
+    spdlog::error("--tag-search: {}", search.error().message);
+    return 2;
+  }
+  auto tracker = TagSearchForRecording(info, *search);
+  if (!tracker) {
+    spdlog::error("recording.yaml: targets.family: {}", tracker.error().message);
     return 1;
   }
 
@@ -119,6 +127,9 @@ int RunReplay(const ReplayArgs& args) {
   stats.frames = static_cast<int>(entries.size());
   stats.mode = mode;
   std::optional<Frame> last_frame;  // the frame detect() read last, for the features
+  // Once reconstruction runs, it tells the tracker where the mapped tags
+  // will be (Reconstructor::PredictTagCorners), as `run` does.
+  std::function<std::map<TagId, QuadCorners>(FrameId)> predict = [](FrameId) { return std::map<TagId, QuadCorners>{}; };
   auto detect = [&](size_t i, int* width, int* height) -> std::optional<DetectionSet> {
     last_frame.reset();
     auto frame = reader->LoadFrame(i);
@@ -132,7 +143,7 @@ int RunReplay(const ReplayArgs& args) {
     if (width) *width = frame->gray.cols;
     if (height) *height = frame->gray.rows;
     const auto t0 = std::chrono::steady_clock::now();
-    auto detections = (*detector)->Detect(frame->gray, entries[i].frame);
+    auto detections = (*tracker)->Track(frame->gray, entries[i].frame, predict(entries[i].frame));
     stats.detection_ms.push_back(MsSince(t0));
     if (!detections) {
       spdlog::warn("skipping frame {}: {}", entries[i].frame, detections.error().message);
@@ -178,6 +189,9 @@ int RunReplay(const ReplayArgs& args) {
   if (!recon) {
     spdlog::error("{}: {}", (reader->dir() / "recording.yaml").string(), recon.error().message);
     return 1;
+  }
+  if (*search == TagSearch::kTracking) {
+    predict = [&](FrameId frame) { return (*recon)->PredictTagCorners(frame); };
   }
   // Realtime: the dashboard and the live feedback, as `run` has them.
   std::unique_ptr<DashboardServer> dashboard;
@@ -241,6 +255,9 @@ int RunReplay(const ReplayArgs& args) {
     result.feature_points = features->Triangulate(result.Poses(), result.camera);
     stats.triangulation_s = MsSince(t0) / 1000.0;
   }
+  stats.tag_search = TagSearchName(*search);
+  stats.full_frame_detections = (*tracker)->stats().full_frame_detections;
+  stats.tag_search_recoveries = (*tracker)->stats().recoveries;
   stats.runtime_s = MsSince(start) / 1000.0;
   stats.peak_rss_mb = PeakRssMb();
   if (dashboard) dashboard->Stop();
@@ -262,6 +279,10 @@ void AddReplayCommand(CLI::App& app, int& exit_code) {
   cmd->add_option("--targets", args->targets, "known target map (targets.csv), overriding the recording's");
   cmd->add_flag("--no-features", args->no_features, "targets only (photogrammetry alone): no SIFT feature points");
   cmd->add_flag("--no-targets", args->no_targets, "feature SfM alone (not available yet)");
+  cmd->add_option("--tag-search", args->tag_search,
+                  "tracking (video: regions around the tags of the frames before, full frames every 15) or "
+                  "every_frame (photo sets: a full-frame detection on each)")
+      ->capture_default_str();
   cmd->add_flag("--realtime", args->realtime, "pace frames at their timestamps and serve the live dashboard, like run");
   cmd->add_option("--dashboard", args->dashboard, "with --realtime: serve the dashboard at ADDR:PORT (port 0: any free one)")
       ->capture_default_str();

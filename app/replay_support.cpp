@@ -12,6 +12,24 @@ Result<std::unique_ptr<TagDetector>> DetectorForRecording(const RecordingInfo& i
   return TagDetector::Create(options);
 }
 
+const char* TagSearchName(TagSearch search) {
+  return search == TagSearch::kTracking ? "tracking" : "every_frame";
+}
+
+Result<TagSearch> ParseTagSearch(const std::string& name) {
+  if (name == "tracking") return TagSearch::kTracking;
+  if (name == "every_frame") return TagSearch::kEveryFrame;
+  return MakeError("tag search must be tracking or every_frame (got '" + name + "')");
+}
+
+Result<std::unique_ptr<TagTracker>> TagSearchForRecording(const RecordingInfo& info, TagSearch search) {
+  TagDetectorOptions detector;
+  detector.family = info.targets.family;
+  TagTrackerOptions tracker;
+  if (search == TagSearch::kEveryFrame) tracker.full_frame_every = 1;  // every frame is a scheduled full-frame pass
+  return TagTracker::Create(detector, tracker);
+}
+
 bool StderrIsTerminal() { return ::isatty(STDERR_FILENO) == 1; }
 
 ProgressLine::ProgressLine(std::string stage, size_t total)

@@ -162,9 +162,9 @@ int RunDaemon(const RunArgs& args) {
     spdlog::error("{}", writer.error().message);
     return 1;
   }
-  auto detector = DetectorForRecording(info);
-  if (!detector) {
-    spdlog::error("{}: targets.family: {}", args.config, detector.error().message);
+  auto tracker = TagSearchForRecording(info, config->tag_search);
+  if (!tracker) {
+    spdlog::error("{}: targets.family: {}", args.config, tracker.error().message);
     return 2;
   }
   auto recon = Reconstructor::Create(*info.camera, info.targets, known_map, {});
@@ -203,7 +203,11 @@ int RunDaemon(const RunArgs& args) {
   while (auto frame = queue.Pop()) {
     ++stats.frames;
     const auto t0 = std::chrono::steady_clock::now();
-    auto detections = (*detector)->Detect(frame->gray, frame->index);
+    // Reconstruction tells the tracker where the mapped tags will be.
+    const std::map<TagId, QuadCorners> predicted =
+        config->tag_search == TagSearch::kTracking ? (*recon)->PredictTagCorners(frame->index)
+                                                   : std::map<TagId, QuadCorners>{};
+    auto detections = (*tracker)->Track(frame->gray, frame->index, predicted);
     stats.detection_ms.push_back(MsSince(t0));
     if (!detections) {
       spdlog::warn("frame {}: {}", frame->index, detections.error().message);
@@ -241,6 +245,9 @@ int RunDaemon(const RunArgs& args) {
   }
 
   ReconstructionResult result = (*recon)->Finish();
+  stats.tag_search = TagSearchName(config->tag_search);
+  stats.full_frame_detections = (*tracker)->stats().full_frame_detections;
+  stats.tag_search_recoveries = (*tracker)->stats().recoveries;
   TrackRecordedKeyframes(config->record_dir, feature_keyframes, **features, &stats);
   const auto t_triangulate = std::chrono::steady_clock::now();
   result.feature_points = (*features)->Triangulate(result.Poses(), result.camera);

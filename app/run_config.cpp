@@ -36,8 +36,13 @@ Result<RunConfig> ReadRunConfig(const std::filesystem::path& path) {
     if (run && run["dashboard"]) config.dashboard = run["dashboard"].as<std::string>();
     if (run && run["max_queue_frames"]) config.max_queue_frames = run["max_queue_frames"].as<size_t>();
     if (run && run["point_error_goal_mm"]) config.feedback.point_error_goal_m = run["point_error_goal_mm"].as<double>() / 1000.0;
+    if (run && run["tag_search"]) {
+      auto search = ParseTagSearch(run["tag_search"].as<std::string>());
+      if (!search) return MakeError(file + ": run.tag_search: " + search.error().message);
+      config.tag_search = *search;
+    }
   } catch (const YAML::Exception&) {
-    return MakeError(file + ": run: a field has the wrong type (record_dir, results_dir, dashboard: text; "
+    return MakeError(file + ": run: a field has the wrong type (record_dir, results_dir, dashboard, tag_search: text; "
                             "max_queue_frames: a whole number; point_error_goal_mm: a number)");
   }
   if (config.results_dir.empty() && !config.record_dir.empty()) {

@@ -9,6 +9,7 @@
 
 #include "tagsfm/capture/capture_settings.h"
 #include "tagsfm/capture/recording.h"
+#include "replay_support.h"
 #include "tagsfm/feedback/live_feedback.h"
 
 namespace tagsfm {
@@ -20,6 +21,7 @@ struct RunConfig {
   std::string results_dir;                 // result files when capture ends (default RECORD/results)
   std::string dashboard = "127.0.0.1:8080";
   size_t max_queue_frames = 60;            // frames waiting for reconstruction before live drops some
+  TagSearch tag_search = TagSearch::kTracking;  // run.tag_search: tracking or every_frame
   LiveFeedbackOptions feedback;
 
   Status Check() const;

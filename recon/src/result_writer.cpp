@@ -112,6 +112,11 @@ Status WriteReport(const std::filesystem::path& path, const ReconstructionResult
   report["runtime_s"] = stats.runtime_s;
   report["frame_latency_ms"] = LatencyJson(stats.frame_latency_ms);
   if (!stats.detection_ms.empty()) report["detection_ms"] = LatencyJson(stats.detection_ms);
+  if (!stats.tag_search.empty()) {
+    report["tag_search"] = {{"mode", stats.tag_search},
+                            {"full_frame_detections", stats.full_frame_detections},
+                            {"recoveries", stats.tag_search_recoveries}};
+  }
   if (!stats.feature_ms.empty()) {
     report["feature_keyframes"] = stats.feature_ms.size();
     report["feature_ms"] = LatencyJson(stats.feature_ms);

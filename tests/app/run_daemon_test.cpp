@@ -67,6 +67,9 @@ TEST(RunDaemon, RecordsEveryFrameAndGivesTheSameResultAsAReplay) {
   EXPECT_GT(live_report["feature_points"].get<int>(), 0);
   EXPECT_EQ(live_report["feature_points"].get<int>(), replay_report["feature_points"].get<int>());
   EXPECT_EQ(live_report["feature_keyframes"].get<int>(), replay_report["feature_keyframes"].get<int>());
+  // Both found the tags by tracking (the default), with the map's predictions.
+  EXPECT_EQ(live_report["tag_search"]["mode"], "tracking");
+  EXPECT_EQ(live_report["tag_search"], replay_report["tag_search"]);
 }
 
 TEST(RunDaemon, ABadConfigIsAOneLineErrorNamingTheField) {
@@ -86,6 +89,11 @@ TEST(RunDaemon, ABadConfigIsAOneLineErrorNamingTheField) {
                         << (tmp.path() / "rec").string() << "\n";
   EXPECT_NE(RunCommand(testing::TagsfmExe().string() + " run --config " + config.string(), tmp.path() / "log"), 0);
   EXPECT_NE(ReadText(tmp.path() / "log").find("/dev/video_missing"), std::string::npos) << ReadText(tmp.path() / "log");
+
+  std::ofstream(config) << "capture:\n  source: v4l2:/dev/video_missing\nrun:\n  record_dir: "
+                        << (tmp.path() / "rec").string() << "\n  tag_search: sometimes\n";
+  EXPECT_NE(RunCommand(testing::TagsfmExe().string() + " run --config " + config.string(), tmp.path() / "log"), 0);
+  EXPECT_NE(ReadText(tmp.path() / "log").find("run.tag_search"), std::string::npos) << ReadText(tmp.path() / "log");
 }
 
 }  // namespace

@@ -22,6 +22,9 @@ struct RunStats {
   double runtime_s = 0;
   std::vector<double> frame_latency_ms; // reconstruction per frame, detection aside
   std::vector<double> detection_ms;     // detection per frame
+  std::string tag_search;               // "tracking", "every_frame" (empty: not reported)
+  int full_frame_detections = 0;        // frames detected in full (scheduled, first, after a lost tag)
+  int tag_search_recoveries = 0;        // of those, after a tracked tag was not where predicted
   std::vector<double> feature_ms;       // feature tracking per feature keyframe
   double triangulation_s = 0;           // feature points from the final poses
   double peak_rss_mb = 0;
