@@ -14,6 +14,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdint>
 #include <limits>
 #include <optional>
 #include <vector>
@@ -32,6 +33,9 @@ namespace {
 // tag, and exp (let alone std::erfc) dominated its cost. Cubic Hermite
 // interpolation between knots 1/32 apart, with the exact derivatives
 // (phi' = -x phi), is good to ~1e-9, far below what 8-bit pixels resolve.
+// Each interval stores both cubics' coefficients in f (Horner: 12 flops,
+// one cache line), not the knots' values and slopes (~30 flops from four
+// scattered loads): ~15 % of the refinement's time saved.
 struct CdfPdf {
   double cdf;
   double pdf;
@@ -43,10 +47,21 @@ class NormalTable {
   static constexpr int kKnots = static_cast<int>(2 * kRange * kKnotsPerUnit) + 2;
 
   NormalTable() {
-    for (int i = 0; i < kKnots; ++i) {
-      const double x = -kRange + i / kKnotsPerUnit;
-      cdf_[i] = 0.5 * std::erfc(-x * M_SQRT1_2);
-      pdf_[i] = 0.3989422804014327 * std::exp(-0.5 * x * x);
+    const double h = 1.0 / kKnotsPerUnit;
+    for (int i = 0; i + 1 < kKnots; ++i) {
+      const double x0 = -kRange + i * h, x1 = x0 + h;
+      const double c0 = Cdf(x0), c1 = Cdf(x1), p0 = Pdf(x0), p1 = Pdf(x1);
+      // Hermite basis on [0, 1]: h00 = 2f^3 - 3f^2 + 1, h10 = f^3 - 2f^2 + f,
+      // h01 = -2f^3 + 3f^2, h11 = f^3 - f^2; slopes scaled by h.
+      auto cubic = [](double v0, double d0, double v1, double d1) {
+        return std::array<double, 4>{v0, d0, -3 * v0 - 2 * d0 + 3 * v1 - d1, 2 * v0 + d0 - 2 * v1 + d1};
+      };
+      const std::array<double, 4> cdf = cubic(c0, h * p0, c1, h * p1);
+      const std::array<double, 4> pdf = cubic(p0, -h * x0 * p0, p1, -h * x1 * p1);
+      for (int k = 0; k < 4; ++k) {
+        intervals_[i].cdf[k] = cdf[k];
+        intervals_[i].pdf[k] = pdf[k];
+      }
     }
   }
 
@@ -55,19 +70,20 @@ class NormalTable {
     if (!(x < kRange)) return {1.0, 0.0};
     const double t = (x + kRange) * kKnotsPerUnit;
     const int i = static_cast<int>(t);
-    const double f = t - i, h = 1.0 / kKnotsPerUnit;
-    const double x0 = -kRange + i * h, x1 = x0 + h;
-    // Hermite basis on [0, 1].
-    const double f2 = f * f, f3 = f2 * f;
-    const double h00 = 2 * f3 - 3 * f2 + 1, h10 = f3 - 2 * f2 + f, h01 = -2 * f3 + 3 * f2, h11 = f3 - f2;
-    const double p0 = pdf_[i], p1 = pdf_[i + 1];
-    return {h00 * cdf_[i] + h10 * h * p0 + h01 * cdf_[i + 1] + h11 * h * p1,
-            h00 * p0 - h10 * h * x0 * p0 + h01 * p1 - h11 * h * x1 * p1};
+    const double f = t - i;
+    const Interval& c = intervals_[i];
+    return {c.cdf[0] + f * (c.cdf[1] + f * (c.cdf[2] + f * c.cdf[3])),
+            c.pdf[0] + f * (c.pdf[1] + f * (c.pdf[2] + f * c.pdf[3]))};
   }
 
  private:
-  std::array<double, kKnots> cdf_{};
-  std::array<double, kKnots> pdf_{};
+  static double Cdf(double x) { return 0.5 * std::erfc(-x * M_SQRT1_2); }
+  static double Pdf(double x) { return 0.3989422804014327 * std::exp(-0.5 * x * x); }
+  struct alignas(64) Interval {
+    double cdf[4];  // coefficients of 1, f, f^2, f^3
+    double pdf[4];
+  };
+  std::array<Interval, kKnots - 1> intervals_{};
 };
 const NormalTable kNormalTable;  // built at load time, read-only after: thread-safe
 inline CdfPdf Normal(double x) { return kNormalTable(x); }
@@ -91,8 +107,10 @@ struct BandPixel {
   double beyond_prev = -1e9;  // signed distances outside the adjacent edges' lines, px
   double beyond_next = -1e9;
   // Per row behind the border: how much of the outside's shade its modules
-  // put here, blurred along the edge (EdgeModel::UpdateShades).
+  // put here, blurred along the edge (EdgeModel::Shade), and the blur it was
+  // computed for (0: not yet).
   std::array<double, kRowsBehind> shade{};
+  std::array<double, kRowsBehind> shade_sigma{};
 };
 
 // The edge's parameters: outward normal at angle theta, n . x = rho; grey
@@ -133,8 +151,9 @@ class EdgeModel {
   }
 
   // Value and derivatives with respect to (theta, rho, border, outside,
-  // sigma); `normal` is (cos theta, sin theta), computed once per pass.
-  double Evaluate(const BandPixel& p, const EdgeParams& e, const Eigen::Vector2d& normal,
+  // sigma); `normal` is (cos theta, sin theta), computed once per pass;
+  // `shade_sigma`: the blur for the row shades (see Shade).
+  double Evaluate(BandPixel& p, const EdgeParams& e, const Eigen::Vector2d& normal, double shade_sigma,
                   Eigen::Matrix<double, 5, 1>* jacobian) const {
     const Eigen::Vector2d tangent(-normal.y(), normal.x());
     const double d = normal.dot(p.position) - e.rho;
@@ -158,13 +177,19 @@ class EdgeModel {
     double g = 1.0 - outer.cdf * inside_adjacent;
     double dg_dd = outer.pdf * inv_s * inside_adjacent;
     double dg_ds = -a * outer.pdf * inv_s * inside_adjacent - outer.cdf * dinside_ds;
+    // Row r's inner boundary is row r + 1's outer one: its look-up is shared
+    // (one of ~5 per pixel saved where both rows show).
+    CdfPdf shared{};
+    int shared_row = -1;
     for (int r = 0; r < kRows; ++r) {
-      const double shade = p.shade[r];
-      if (shade == 0.0) continue;
       const double b0 = (d + (r + 1) * p.inner_px) * inv_s;  // the row's outer and inner boundaries
       const double b1 = (d + (r + 2) * p.inner_px) * inv_s;
       if (b0 > kReachSigmas || b1 < -kReachSigmas) continue;  // the row's blur does not reach this pixel
-      const CdfPdf n0 = Normal(-b0), n1 = Normal(-b1);
+      const double shade = Shade(r, shade_sigma, &p);
+      if (shade == 0.0) continue;
+      const CdfPdf n0 = shared_row == r ? shared : Normal(-b0), n1 = Normal(-b1);
+      shared = n1;
+      shared_row = r + 1;
       g += shade * (n0.cdf - n1.cdf);
       dg_dd += shade * (n1.pdf - n0.pdf) * inv_s;
       dg_ds += shade * (b0 * n0.pdf - b1 * n1.pdf) * inv_s;
@@ -180,15 +205,20 @@ class EdgeModel {
     return e.border + contrast * g;
   }
 
-  // Each pixel's row shades for blur `sigma`. They change little with the
-  // blur, so the fit computes them once per pass, not per evaluation (and
-  // treats them as constants in the Jacobian).
+  // The pixel's shade from row r for blur `sigma`. It changes little with
+  // the blur, so the fit computes it once per pass, not per evaluation (and
+  // treats it as a constant in the Jacobian), and only where the row's blur
+  // reaches the pixel: computed on first use, not for the whole band (a
+  // third to three quarters of the pixels, the more the bigger the tag,
+  // never need it: 2-8 % of the refinement's time saved).
   // (A third of the fit's time went here: hence each row's boundaries where
   // the shade changes are listed once, not searched per pixel.)
-  void UpdateShades(double sigma, std::vector<BandPixel>* band) const {
-    for (BandPixel& p : *band) {
-      for (int r = 0; r < kRows; ++r) p.shade[r] = RowShade(rows_[r], p.u, sigma / p.along_px);
+  double Shade(int r, double sigma, BandPixel* p) const {
+    if (p->shade_sigma[r] != sigma) {
+      p->shade[r] = RowShade(rows_[r], p->u, sigma / p->along_px);
+      p->shade_sigma[r] = sigma;
     }
+    return p->shade[r];
   }
 
  private:
@@ -236,13 +266,13 @@ class EdgeModel {
 // `shade_tolerance` (relative) since they were last computed.
 bool FitEdgeModel(const EdgeModel& model, double half_length, int max_iterations, double stop_px,
                   double shade_tolerance, std::vector<BandPixel>* pixels, EdgeParams* params) {
-  const std::vector<BandPixel>& band = *pixels;
+  std::vector<BandPixel>& band = *pixels;
   if (band.size() < 12) return false;
-  double shade_sigma = params->sigma;
-  model.UpdateShades(shade_sigma, pixels);
+  double shade_sigma = params->sigma;  // the row shades' blur
   EdgeParams previous = *params;
   Eigen::Matrix<double, 5, 1> last_step = Eigen::Matrix<double, 5, 1>::Zero();
   double previous_cost = std::numeric_limits<double>::infinity();
+  std::vector<std::array<double, 6>> jr(band.size());
   for (int iteration = 0; iteration < max_iterations; ++iteration) {
     Eigen::Matrix<double, 5, 5> normal_matrix = Eigen::Matrix<double, 5, 5>::Zero();
     Eigen::Matrix<double, 5, 1> gradient = Eigen::Matrix<double, 5, 1>::Zero();
@@ -250,17 +280,33 @@ bool FitEdgeModel(const EdgeModel& model, double half_length, int max_iterations
     double cost = 0.0;
     if (std::abs(params->sigma - shade_sigma) > shade_tolerance * shade_sigma) {
       shade_sigma = params->sigma;
-      model.UpdateShades(shade_sigma, pixels);
       previous_cost = std::numeric_limits<double>::infinity();  // a different model: costs do not compare
     }
     const Eigen::Vector2d normal(std::cos(params->theta), std::sin(params->theta));
-    for (const BandPixel& p : band) {
-      const double r = model.Evaluate(p, *params, normal, &j) - p.value;
-      // A fixed-size outer product: Eigen's rankUpdate went through its
-      // generic (not inlined) product kernel, a quarter of the fit's time.
-      normal_matrix.noalias() += j * j.transpose();
-      gradient += j * r;
-      cost += r * r;
+    // The normal matrix's 15 upper-triangle entries in plain doubles,
+    // mirrored once per iteration: Eigen's fixed-size outer product (itself
+    // far cheaper than its rankUpdate) summed all 25 (~1-2 % saved).
+    std::array<double, 15> upper{};
+    // A local copy: the loop's stores (shades, jr) might alias *params, which
+    // kept 1/sigma from being hoisted out of it (~2-3 % saved).
+    const EdgeParams at = *params;
+    // Two loops, the model's and then the sums: the model's long chain of
+    // dependent look-ups overlaps better across pixels without the 21 sums
+    // in the same loop body (~3 % saved).
+    for (size_t i = 0; i < band.size(); ++i) {
+      BandPixel& p = band[i];
+      const double r = model.Evaluate(p, at, normal, shade_sigma, &j) - p.value;
+      jr[i] = {j(0), j(1), j(2), j(3), j(4), r};
+    }
+    for (const std::array<double, 6>& e : jr) {
+      for (int a = 0, k = 0; a < 5; ++a) {
+        for (int b = a; b < 5; ++b) upper[k++] += e[a] * e[b];
+      }
+      for (int a = 0; a < 5; ++a) gradient(a) += e[a] * e[5];
+      cost += e[5] * e[5];
+    }
+    for (int a = 0, k = 0; a < 5; ++a) {
+      for (int b = a; b < 5; ++b) normal_matrix(a, b) = normal_matrix(b, a) = upper[k++];
     }
     Eigen::Matrix<double, 5, 1> step;
     if (cost > previous_cost) {
@@ -406,7 +452,16 @@ std::vector<BandPixel> CollectBand(const cv::Mat& image, const Eigen::Matrix3d& 
   const int y0 = std::max(0, static_cast<int>(std::floor(y_min - pad)));
   const int y1 = std::min(image.rows - 1, static_cast<int>(std::ceil(y_max + pad)));
   if (y1 < y0 || y1 - y0 > 4000) return band;
+  // Room for the quadrilateral's area and its rows' ends: growing the vector
+  // copied each pixel ~twice (with the pixels built in place and thinned in
+  // place, ~2 % of the refinement saved).
+  double area = 0.0;
+  for (int e = 0; e < 4; ++e) {
+    area += 0.5 * (quad[e].x() * quad[(e + 1) % 4].y() - quad[(e + 1) % 4].x() * quad[e].y());
+  }
+  band.reserve(static_cast<size_t>(std::abs(area) / (half ? 2 : 1)) + 4 * static_cast<size_t>(y1 - y0 + 2 + 2 * pad));
   const Eigen::Matrix3d& h = square_from_image;
+  const Eigen::Vector2d along_row(along.x() * h(0, 0) + along.y() * h(1, 0), along.x() * h(0, 1) + along.y() * h(1, 1));
   for (int y = y0; y <= y1; ++y) {
     // Where the quadrilateral meets this row (widened by the padding).
     double x_low = 1e18, x_high = -1e18;
@@ -433,13 +488,13 @@ std::vector<BandPixel> CollectBand(const cv::Mat& image, const Eigen::Matrix3d& 
     const int step = half ? 2 : 1;
     for (int x = half ? x0 + ((x0 + y) & 1) : x0; x <= x1; x += step) {
       const Eigen::Vector2d pixel = undistortion != nullptr ? (*undistortion)(Eigen::Vector2d(x, y)) : Eigen::Vector2d(x, y);
-      const double w = h(2, 0) * pixel.x() + h(2, 1) * pixel.y() + h(2, 2);
-      const Eigen::Vector2d q((h(0, 0) * pixel.x() + h(0, 1) * pixel.y() + h(0, 2)) / w,
-                              (h(1, 0) * pixel.x() + h(1, 1) * pixel.y() + h(1, 2)) / w);
+      const double inv_w = 1.0 / (h(2, 0) * pixel.x() + h(2, 1) * pixel.y() + h(2, 2));
+      const Eigen::Vector2d q((h(0, 0) * pixel.x() + h(0, 1) * pixel.y() + h(0, 2)) * inv_w,
+                              (h(1, 0) * pixel.x() + h(1, 1) * pixel.y() + h(1, 2)) * inv_w);
       const double u = (q - start).dot(along);
       const double v = (q - start).dot(inward);
       if (u < end_margin_modules || u > n - end_margin_modules || v < -kOutside || v > kInside) continue;
-      BandPixel p;
+      BandPixel& p = band.emplace_back();
       p.position = pixel;
       p.value = row[x];
       p.u = u;
@@ -450,11 +505,14 @@ std::vector<BandPixel> CollectBand(const cv::Mat& image, const Eigen::Matrix3d& 
       p.inner_px = (inner_line.normal.dot(pixel) - inner_line.offset) - (outer_line.normal.dot(pixel) - outer_line.offset);
       // One module along the edge as the blur sees it: the distance across
       // the (under perspective slanted) boundaries between modules,
-      // 1/|grad u|, from the homography's derivative.
-      const Eigen::Vector2d dq_dx = Eigen::Vector2d(h(0, 0) - q.x() * h(2, 0), h(1, 0) - q.y() * h(2, 0)) / w;
-      const Eigen::Vector2d dq_dy = Eigen::Vector2d(h(0, 1) - q.x() * h(2, 1), h(1, 1) - q.y() * h(2, 1)) / w;
-      p.along_px = 1.0 / std::max(1e-9, Eigen::Vector2d(dq_dx.dot(along), dq_dy.dot(along)).norm());
-      band.push_back(p);
+      // 1/|grad u|, from the homography's derivative: grad u = (row of the
+      // homography along the edge - (q . along) h's last row) / w, with the
+      // constant part out of the loop: one division per pixel for q and grad
+      // u, not five (with StartLevels' histogram, ~5 % of the refinement).
+      const double q_along = q.dot(along);
+      const double du_dx = (along_row.x() - q_along * h(2, 0)) * inv_w;
+      const double du_dy = (along_row.y() - q_along * h(2, 1)) * inv_w;
+      p.along_px = 1.0 / std::max(1e-9, std::sqrt(du_dx * du_dx + du_dy * du_dy));
     }
   }
   // Positions relative to the band's centroid (see FitEdgeModel).
@@ -470,10 +528,9 @@ std::vector<BandPixel> CollectBand(const cv::Mat& image, const Eigen::Matrix3d& 
   constexpr size_t kMaxBandPixels = 400;
   if (band.size() > kMaxBandPixels) {
     const double stride = static_cast<double>(band.size()) / kMaxBandPixels;
-    std::vector<BandPixel> thinned;
-    thinned.reserve(kMaxBandPixels);
-    for (size_t i = 0; i < kMaxBandPixels; ++i) thinned.push_back(band[static_cast<size_t>(i * stride)]);
-    band.swap(thinned);
+    // In place (i * stride >= i), not into a second vector.
+    for (size_t i = 0; i < kMaxBandPixels; ++i) band[i] = band[static_cast<size_t>(i * stride)];
+    band.resize(kMaxBandPixels);
   }
   return band;
 }
@@ -508,16 +565,20 @@ bool Intersect(const EdgeLine& a, const EdgeLine& b, Eigen::Vector2d* point) {
 
 // Robust start for the grey levels: low and high percentiles of the band.
 void StartLevels(const std::vector<BandPixel>& band, EdgeParams* params) {
-  std::vector<double> values;
-  values.reserve(band.size());
-  for (const BandPixel& p : band) values.push_back(p.value);
-  // Two selections, not a sort (which was 5 % of the fit).
-  const auto low_it = values.begin() + static_cast<long>(values.size() / 10);
-  const auto high_it = values.begin() + static_cast<long>(values.size() * 9 / 10);
-  std::nth_element(values.begin(), high_it, values.end());
-  std::nth_element(values.begin(), low_it, high_it);
-  const double low = *low_it;
-  const double high = *high_it;
+  // The values are 8-bit grey levels: the two order statistics from a
+  // histogram, not two selections (a sort was 5 % of the fit).
+  std::array<int, 256> histogram{};
+  for (const BandPixel& p : band) ++histogram[static_cast<uint8_t>(p.value)];
+  auto nth_value = [&](size_t k) {  // the k-th smallest value, from 0
+    size_t below = 0;
+    for (int v = 0; v < 255; ++v) {
+      below += static_cast<size_t>(histogram[v]);
+      if (below > k) return static_cast<double>(v);
+    }
+    return 255.0;
+  };
+  const double low = nth_value(band.size() / 10);
+  const double high = nth_value(band.size() * 9 / 10);
   // Which of the two is the border's is decided by the mean value outside.
   double outside_sum = 0.0;
   int outside_count = 0;
@@ -584,6 +645,10 @@ bool RefineCornersByEdgeLines(const cv::Mat& gray8, const TagLayout& layout, Qua
   // saved). The second pass re-samples the whole band and re-places the row
   // behind the border from the first pass's corners, and always runs: its
   // minimum, on every pixel, is the answer.
+  // The edges' models are the same in both passes: built once (their
+  // vectors' allocations, ~2 % of the refinement).
+  const std::array<EdgeModel, 4> models = {EdgeModel(RowsBehindEdge(layout, 0)), EdgeModel(RowsBehindEdge(layout, 1)),
+                                           EdgeModel(RowsBehindEdge(layout, 2)), EdgeModel(RowsBehindEdge(layout, 3))};
   for (int pass = 0; pass < 2; ++pass) {
     const bool coarse = pass == 0;
     const std::optional<Eigen::Matrix3d> image_from_square = HomographyFrom4(CornerSquareCorners(n), current);
@@ -610,8 +675,7 @@ bool RefineCornersByEdgeLines(const cv::Mat& gray8, const TagLayout& layout, Qua
       const int max_iterations = coarse ? 5 : 3;
       const double stop_px = coarse ? 0.01 : 1e-4;
       const double shade_tolerance = coarse ? 0.1 : 0.02;
-      if (!FitEdgeModel(EdgeModel(RowsBehindEdge(layout, i)), half_length, max_iterations, stop_px, shade_tolerance,
-                        &band, &e)) {
+      if (!FitEdgeModel(models[i], half_length, max_iterations, stop_px, shade_tolerance, &band, &e)) {
         return false;
       }
       lines[i].normal = Eigen::Vector2d(std::cos(e.theta), std::sin(e.theta));
