@@ -11,9 +11,8 @@
 #include <vector>
 
 #include <Eigen/Dense>
-#include <opencv2/aruco.hpp>
 
-#include "aruco_dictionary.h"
+#include "band_candidates.h"
 #include "tag_detector_workers.h"
 
 namespace tagsfm {
@@ -34,58 +33,6 @@ Status TagTrackerOptions::Check() const {
   if (!(entry_min_inflow_px >= 0.0)) return MakeError("entry_min_inflow_px must be >= 0");
   return Status::Ok();
 }
-
-namespace detail {
-
-// Candidate tags in an entry band, by OpenCV's aruco with the family's
-// dictionary: ~5x less CPU than libapriltag on the same band (720p bench:
-// 1.1 vs 5.2 ms per frame), but with aruco's own decoding and a margin it
-// wants at the image's edges. So it only says where to look: libapriltag
-// then searches a padded region around each candidate that no tracked
-// region covers, and only what it finds counts.
-class BandCandidates {
- public:
-  // Null when aruco has no dictionary for the family.
-  static std::unique_ptr<BandCandidates> Create(const std::string& family) {
-    cv::Ptr<cv::aruco::Dictionary> dictionary = ArucoDictionaryFor(family);
-    if (!dictionary) return nullptr;
-    auto candidates = std::unique_ptr<BandCandidates>(new BandCandidates);
-    candidates->dictionary_ = dictionary;
-    candidates->parameters_ = cv::aruco::DetectorParameters::create();
-    // A tag that has just entered may lie a pixel from the image's edge.
-    candidates->parameters_->minDistanceToBorder = 1;
-    // Bits read at 8 px per module, ignoring 30 % of a module at its
-    // edges: finds far more small and strongly tilted tags than aruco's
-    // defaults (4 px, 13 %): 1280x720, 120 tags of 24 px tilted <= 50 deg,
-    // 116 vs 92 (libapriltag at quad_decimate 2: 105), at the same cost.
-    candidates->parameters_->perspectiveRemovePixelPerCell = 8;
-    candidates->parameters_->perspectiveRemoveIgnoredMarginPerCell = 0.3;
-    return candidates;
-  }
-
-  // Corners of the candidates in `band` (band coordinates). Thread-safe:
-  // the dictionary and parameters are only read.
-  std::vector<QuadCorners> Find(const cv::Mat& band) const {
-    std::vector<std::vector<cv::Point2f>> corners;
-    std::vector<int> ids;
-    cv::aruco::detectMarkers(band, dictionary_, corners, ids, parameters_);
-    std::vector<QuadCorners> quads;
-    for (const std::vector<cv::Point2f>& marker : corners) {
-      if (marker.size() != 4) continue;
-      QuadCorners quad;
-      for (int k = 0; k < 4; ++k) quad[k] = Eigen::Vector2d(marker[k].x, marker[k].y);
-      quads.push_back(quad);
-    }
-    return quads;
-  }
-
- private:
-  BandCandidates() = default;
-  cv::Ptr<cv::aruco::Dictionary> dictionary_;
-  cv::Ptr<cv::aruco::DetectorParameters> parameters_;
-};
-
-}  // namespace detail
 
 TagTracker::TagTracker(TagTrackerOptions options, std::unique_ptr<TagDetector> full,
                        std::vector<ThreadDetectors> per_thread, std::unique_ptr<detail::BandCandidates> candidates)
