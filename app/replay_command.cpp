@@ -4,6 +4,7 @@
 // --realtime, frames are paced at their timestamps and the live feedback is
 // served on the dashboard, as `run` serves it, so that a recording can be
 // watched (or a dashboard tried) without a camera; the results are the same.
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
@@ -11,6 +12,7 @@
 #include <map>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include <spdlog/spdlog.h>
 
@@ -43,12 +45,13 @@ double MsSince(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
 }
 
-// Every frame's detections, for a recording whose intrinsics must first be
-// calibrated from the targets.
-struct Detected {
-  std::optional<DetectionSet> detections;  // nullopt: unreadable frame
-  double detection_ms = 0;
-};
+// The q-quantile of `values` (0 when empty).
+double Percentile(std::vector<double> values, double q) {
+  if (values.empty()) return 0.0;
+  const size_t i = std::min(values.size() - 1, static_cast<size_t>(q * static_cast<double>(values.size())));
+  std::nth_element(values.begin(), values.begin() + static_cast<long>(i), values.end());
+  return values[i];
+}
 
 void PrintSummary(const ReconstructionResult& result, const RunStats& stats, const std::string& out) {
   int registered = 0;
@@ -60,21 +63,14 @@ void PrintSummary(const ReconstructionResult& result, const RunStats& stats, con
                "  features     %zu points triangulated from the final poses\n"
                "  reprojection %.3f px RMS over %d target corner observations\n"
                "  per frame    %.2f ms p50, %.2f ms p95 (detection aside)\n"
+               "  detection    %.2f ms p50 per frame, %s (%d of the frames in full, %d after a lost tag)\n"
                "  runtime      %.1f s, peak memory %.0f MB\n"
                "  results in   %s  (poses.csv, targets.csv, report.json, cloud.ply, colmap/, preview.png)\n\n",
                stats.frames, stats.frames_skipped, registered, stats.frames - stats.frames_skipped,
                result.tags.size(), stats.mode.c_str(), result.feature_points.size(), result.reprojection_rms_px, result.observations,
-               stats.frame_latency_ms.empty() ? 0.0 : [&] {
-                 auto v = stats.frame_latency_ms;
-                 std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
-                 return v[v.size() / 2];
-               }(),
-               stats.frame_latency_ms.empty() ? 0.0 : [&] {
-                 auto v = stats.frame_latency_ms;
-                 const size_t i = std::min(v.size() - 1, static_cast<size_t>(0.95 * v.size()));
-                 std::nth_element(v.begin(), v.begin() + i, v.end());
-                 return v[i];
-               }(),
+               Percentile(stats.frame_latency_ms, 0.5), Percentile(stats.frame_latency_ms, 0.95),
+               Percentile(stats.detection_ms, 0.5),
+               stats.tag_search.c_str(), stats.full_frame_detections, stats.tag_search_recoveries,
                stats.runtime_s, stats.peak_rss_mb, out.c_str());
 }
 
