@@ -139,6 +139,13 @@ class AprilTagDetector final : public TagDetector {
       case CornerRefinement::kCornerSubPix:
         return RefineCornersBySubPix(gray8, family_->width_at_border, &tag->corners);
       case CornerRefinement::kEdgeLineFit:
+        // With the lens first; where that fit declines (it does on a tag of
+        // the wide-lens test image whose libapriltag corners are 1.1 px
+        // off), the fit without it still beats keeping libapriltag's
+        // corners (there: 0.02 px from the truth instead of 1.13).
+        if (options_.camera && RefineCornersByEdgeLines(gray8, Layout(tag->id), &tag->corners, &*options_.camera)) {
+          return true;
+        }
         return RefineCornersByEdgeLines(gray8, Layout(tag->id), &tag->corners);
     }
     return false;

@@ -7,10 +7,13 @@
 #include <cstdio>
 #include <random>
 
+#include <algorithm>
+
 #include <gtest/gtest.h>
 
 #include "corner_stats.h"
 #include "tagsfm/detect/synthetic_tags.h"
+#include "tagsfm/detect/tag_detector.h"
 #include "tagsfm/detect/tag_layout.h"
 
 namespace tagsfm {
@@ -32,6 +35,10 @@ CameraModel WideLens() {
 struct Measured {
   CornerStats with_camera;
   CornerStats without_camera;
+  // The same image through TagDetector (libapriltag's corners as the start),
+  // with and without TagDetectorOptions::camera.
+  CornerStats detector_with_camera;
+  CornerStats detector_without_camera;
 };
 
 // 40 tags of ~24 px (3 px per module), tilted up to 50 degrees, spread over
@@ -75,6 +82,20 @@ const Measured& MeasureOnce() {
     testing::AccumulateCornerStats(truth, without, &m.without_camera);
     std::printf("distorted, with camera:    %s\n", m.with_camera.Summary().c_str());
     std::printf("distorted, without camera: %s\n", m.without_camera.Summary().c_str());
+    for (bool lens : {true, false}) {
+      TagDetectorOptions options;
+      options.quad_decimate = 2.0f;  // the default: its corners are the rougher start
+      if (lens) options.camera = camera;
+      auto detector = TagDetector::Create(options);
+      EXPECT_TRUE(detector.has_value());
+      if (!detector) return m;
+      auto found = (*detector)->Detect(*image, 0);
+      EXPECT_TRUE(found.has_value());
+      if (!found) return m;
+      CornerStats& stats = lens ? m.detector_with_camera : m.detector_without_camera;
+      testing::AccumulateCornerStats(truth, *found, &stats);
+      std::printf("detector, %s camera: %s\n", lens ? "with   " : "without", stats.Summary().c_str());
+    }
     return m;
   }();
   return measured;
@@ -99,6 +120,19 @@ TEST(CornerDistortionSlow, CameraModelRemovesTheEdgesBow) {
   EXPECT_LE(std::abs(m.with_camera.bias), 0.003);
   // Without it the bowed edges cost accuracy: the camera must do better.
   EXPECT_LT(MeanError(m.with_camera), MeanError(m.without_camera));
+}
+
+// Through the detector, started from libapriltag's corners (straight lines
+// fitted to bowed edges): the same tags, and the camera must do better here
+// too, with no corner thrown off by the start.
+TEST(CornerDistortionSlow, DetectorWithTheCameraModel) {
+  const Measured& m = MeasureOnce();
+  ASSERT_GT(m.detector_without_camera.found_tags, 20);  // 26 of 40 at quad_decimate 2
+  EXPECT_EQ(m.detector_with_camera.found_tags, m.detector_without_camera.found_tags);
+  EXPECT_EQ(m.detector_with_camera.wrong_ids, 0);
+  EXPECT_LE(m.detector_with_camera.Median(), 0.02);
+  EXPECT_LT(MeanError(m.detector_with_camera), MeanError(m.detector_without_camera));
+  EXPECT_LT(*std::max_element(m.detector_with_camera.errors.begin(), m.detector_with_camera.errors.end()), 0.2);
 }
 
 }  // namespace

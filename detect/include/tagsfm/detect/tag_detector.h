@@ -3,11 +3,13 @@
 // (Interface fixed by the foundation so recon can build against it; the
 // detection work fills in the implementation and may add options.)
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include <opencv2/core.hpp>
 
+#include "tagsfm/core/camera_model.h"
 #include "tagsfm/core/result.h"
 #include "tagsfm/detect/tag_detection.h"
 
@@ -47,6 +49,11 @@ struct TagDetectorOptions {
   // added tags keep aruco's corners (contour pixels, up to ~1.5 px off).
   bool small_tag_pass = false;
   double small_tag_min_margin = 0.02;
+  // The lens, when known: with distortion the edge-line fit works in
+  // undistorted pixels, where the tag's edges are straight (see
+  // RefineCornersByEdgeLines). Without: the edges are taken as straight in
+  // the image.
+  std::optional<CameraModel> camera;
 
   Status Check() const;  // names the wrong field
 };
