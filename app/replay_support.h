@@ -22,7 +22,8 @@ Result<std::unique_ptr<TagDetector>> DetectorForRecording(const RecordingInfo& i
 // full-frame detection on video, same recall). Every frame: a full-frame
 // detection on each frame, for photo sets, where nothing carries over from
 // one frame to the next (tracking gives the same tags there, but tries the
-// stale regions first).
+// stale regions first), with the recording's lens model in the corners'
+// edge fit (docs/detection.md, "Lens distortion").
 enum class TagSearch { kTracking, kEveryFrame };
 const char* TagSearchName(TagSearch search);                  // "tracking", "every_frame"
 Result<TagSearch> ParseTagSearch(const std::string& name);
