@@ -127,7 +127,6 @@ void TagTracker::Update(const DetectionSet& detections) {
 
 namespace {
 
-// The padded, clipped bounding box of predicted corners; empty when off-image.
 // Bounding box of a quad: x0, y0, x1, y1.
 Eigen::Vector4d BoundsOf(const QuadCorners& corners) {
   Eigen::Vector4d b(1e18, 1e18, -1e18, -1e18);
@@ -143,6 +142,7 @@ double ExtentOf(const QuadCorners& corners) {
   return std::max(b[2] - b[0], b[3] - b[1]);
 }
 
+// The padded, clipped bounding box of predicted corners; empty when off-image.
 cv::Rect RegionOf(const QuadCorners& corners, const TagTrackerOptions& options, const cv::Size& image) {
   const Eigen::Vector4d b = BoundsOf(corners);
   const double x0 = b[0], y0 = b[1], x1 = b[2], y1 = b[3];
@@ -329,12 +329,11 @@ Status TagTracker::SearchBandCandidates(const cv::Mat& gray8, FrameId frame, con
   return Status::Ok();
 }
 
-// One tracked tag searched in its region, at the detector's decimation
-// (`coarse`) or at region_quad_decimate (on the caller's thread: no job runs
-// now), appended to `found` if there.
-Status TagTracker::SearchAlone(const cv::Mat& gray8, FrameId frame, TagId id, const QuadCorners& corners, bool coarse,
-                               std::vector<TagDetection>* found) {
-  Search region{RegionOf(corners, options_, gray8.size()), false, coarse, false, {}};
+// One tracked tag searched in its region at region_quad_decimate (on the
+// caller's thread: no job runs now), appended to `found` if there.
+Status TagTracker::SearchFine(const cv::Mat& gray8, FrameId frame, TagId id, const QuadCorners& corners,
+                              std::vector<TagDetection>* found) {
+  Search region{RegionOf(corners, options_, gray8.size()), false, false, false, {}};
   if (region.area.area() <= 0) return Status::Ok();
   ++stats_.region_detections;
   if (Status status = SearchArea(gray8, frame, 0, &region); !status) return status;
@@ -345,8 +344,8 @@ Status TagTracker::SearchAlone(const cv::Mat& gray8, FrameId frame, TagId id, co
 }
 
 // A full-frame detection, plus the tracked tags (not the caller's hints) it
-// missed that their regions still find. Regions of small tags run at region_quad_decimate and
-// find tags the full frame (at the detector's decimation) misses; a
+// missed that their regions still find. Regions of small tags run at
+// region_quad_decimate and find tags the full frame (at the detector's decimation) misses; a
 // full-frame pass must not drop them (it did: 24 px tags, 7 of 244
 // sightings, TagTrackerSlow.SmallTagsEnterOnTime).
 Result<DetectionSet> TagTracker::DetectFullFrame(const cv::Mat& gray8, FrameId frame,
@@ -362,7 +361,7 @@ Result<DetectionSet> TagTracker::DetectFullFrame(const cv::Mat& gray8, FrameId f
   std::vector<TagDetection> kept;
   for (const auto& [id, corners] : expected) {
     if (found.count(id) || !tracks_.count(id) || !ExpectedInView(corners, gray8.size())) continue;
-    if (Status status = SearchAlone(gray8, frame, id, corners, false, &kept); !status) return status.error();
+    if (Status status = SearchFine(gray8, frame, id, corners, &kept); !status) return status.error();
   }
   if (!kept.empty()) {
     full_detector_->RefineDetections(gray8, &kept);
@@ -459,7 +458,7 @@ Result<DetectionSet> TagTracker::Track(const cv::Mat& gray8, FrameId frame,
     if (found_ids.count(id) || !tracks_.count(id) || !ExpectedInView(corners, gray8.size())) continue;
     const size_t before = result.tags.size();
     if (ModulePx(corners, modules) >= options_.region_coarse_module_px) {
-      if (Status status = SearchAlone(gray8, frame, id, corners, false, &result.tags); !status) return status.error();
+      if (Status status = SearchFine(gray8, frame, id, corners, &result.tags); !status) return status.error();
     }
     if (result.tags.size() == before) lost = true;
   }

@@ -1,6 +1,7 @@
 #include "tagsfm/recon/corner_prediction.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 
 #include <Eigen/Geometry>

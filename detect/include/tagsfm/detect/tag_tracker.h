@@ -150,8 +150,8 @@ class TagTracker {
   TagTracker(TagTrackerOptions options, std::unique_ptr<TagDetector> full, std::vector<ThreadDetectors> per_thread,
              std::unique_ptr<detail::BandCandidates> candidates);
   Status SearchArea(const cv::Mat& gray8, FrameId frame, int thread, Search* search) const;
-  Status SearchAlone(const cv::Mat& gray8, FrameId frame, TagId id, const QuadCorners& corners, bool coarse,
-                     std::vector<TagDetection>* found);
+  Status SearchFine(const cv::Mat& gray8, FrameId frame, TagId id, const QuadCorners& corners,
+                    std::vector<TagDetection>* found);
   Status SearchBandCandidates(const cv::Mat& gray8, FrameId frame, const std::vector<cv::Rect>& regions, int thread,
                               Search* band) const;
   std::map<TagId, QuadCorners> Predict(FrameId frame, const std::map<TagId, QuadCorners>& predicted) const;
