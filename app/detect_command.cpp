@@ -84,8 +84,9 @@ void AddDetectCommand(CLI::App& app, int& exit_code) {
   cmd->add_option("--max-hamming", args->options.max_hamming, "reject decodes with more corrected bits (0..2)")
       ->capture_default_str();
   cmd->add_flag("--small-tags", args->options.small_tag_pass,
-                "also read the small tags (about 2 px modules) libapriltag finds no quad for, from OpenCV aruco's "
-                "candidates (costs about as much again as the detection; docs/detection.md)");
+                "also read the small or blurred tags (about 2 px modules, or a module of blur) libapriltag finds no "
+                "quad for, from OpenCV aruco's candidates (costs about as much again as the detection at "
+                "--decimate 2; families tag36h11, tag36h10, tag25h9; docs/detection.md)");
   cmd->callback([args, &exit_code] { exit_code = RunDetect(*args); });
 }
 

@@ -10,16 +10,6 @@
 namespace tagsfm::detail {
 namespace {
 
-// Bilinear sample, pixel centres at integers; nullopt outside the image.
-std::optional<double> SampleBilinear(const cv::Mat& g, double x, double y) {
-  const int x0 = static_cast<int>(std::floor(x)), y0 = static_cast<int>(std::floor(y));
-  if (x0 < 0 || y0 < 0 || x0 + 1 >= g.cols || y0 + 1 >= g.rows) return std::nullopt;
-  const double fx = x - x0, fy = y - y0;
-  const uint8_t* r0 = g.ptr<uint8_t>(y0);
-  const uint8_t* r1 = g.ptr<uint8_t>(y0 + 1);
-  return (1 - fy) * ((1 - fx) * r0[x0] + fx * r0[x0 + 1]) + fy * ((1 - fx) * r1[x0] + fx * r1[x0 + 1]);
-}
-
 // Grey level as a plane a + b x + c y over (x, y, grey) samples.
 std::optional<Eigen::Vector3d> FitGreyPlane(const std::vector<Eigen::Vector3d>& samples) {
   Eigen::Matrix3d a = Eigen::Matrix3d::Zero();
@@ -38,6 +28,16 @@ std::optional<Eigen::Vector3d> FitGreyPlane(const std::vector<Eigen::Vector3d>& 
 
 }  // namespace
 
+std::optional<double> SampleBilinear(const cv::Mat& g, double x, double y) {
+  // Compared before the conversion to int: a degenerate quad's homography
+  // can send a point to infinity or NaN.
+  if (!(x >= 0.0 && y >= 0.0 && x < g.cols - 1 && y < g.rows - 1)) return std::nullopt;
+  const int x0 = static_cast<int>(std::floor(x)), y0 = static_cast<int>(std::floor(y));
+  const double fx = x - x0, fy = y - y0;
+  const uint8_t* r0 = g.ptr<uint8_t>(y0);
+  const uint8_t* r1 = g.ptr<uint8_t>(y0 + 1);
+  return (1 - fy) * ((1 - fx) * r0[x0] + fx * r0[x0 + 1]) + fy * ((1 - fx) * r1[x0] + fx * r1[x0 + 1]);
+}
 
 std::optional<QuadReading> ReadQuad(const cv::Mat& g, const apriltag_family_t* family, const QuadCorners& q,
                                     int max_hamming, double min_contrast) {

@@ -34,6 +34,10 @@ struct QuadReading {
 std::optional<QuadReading> ReadQuad(const cv::Mat& g, const apriltag_family_t* family, const QuadCorners& q,
                                     int max_hamming, double min_contrast);
 
+// Bilinear sample of an 8-bit image, pixel centres at integers; nullopt
+// outside the image.
+std::optional<double> SampleBilinear(const cv::Mat& g, double x, double y);
+
 // Whether `p` lies inside (or on) the quadrilateral.
 bool InsideQuad(const QuadCorners& quad, const Eigen::Vector2d& p);
 

@@ -14,6 +14,7 @@
 
 #include "apriltag_family.h"
 #include "aruco_dictionary.h"
+#include "blurred_tag_reader.h"
 #include "small_tag_reader.h"
 #include "tagsfm/detect/apriltag_worker_pool.h"
 #include "tag_detector_workers.h"
@@ -24,6 +25,8 @@ namespace tagsfm {
 namespace {
 
 using detail::ArucoDictionaryFor;
+using detail::BlurredQuadReading;
+using detail::ReadBlurredQuad;
 using detail::InsideQuad;
 using detail::QuadReading;
 using detail::ReadQuad;
@@ -100,7 +103,7 @@ class AprilTagDetector final : public TagDetector {
       result.tags.push_back(tag);
     }
     RefineDetections(gray8, &result.tags);
-    if (options_.small_tag_pass && aruco_dictionary_) SmallTagPass(gray8, &result.tags);
+    if (options_.small_tag_pass) SmallTagPass(gray8, &result.tags);
     std::sort(result.tags.begin(), result.tags.end(),
               [](const TagDetection& a, const TagDetection& b) { return a.id < b.id; });
     return result;
@@ -151,17 +154,23 @@ class AprilTagDetector final : public TagDetector {
     return false;
   }
 
-  // Tags read from aruco's candidates (see ReadQuad) whose ids `tags` lacks
-  // and whose centres lie outside its tags: a first reading with up to 2
-  // bit errors names the id, the corners are refined for that id, then a
-  // second reading on the refined corners must give that id exactly, in the
-  // same corner order, with the margin.
+  // Tags read from aruco's candidates whose ids `tags` lacks and whose
+  // centres lie outside its tags. First the module-centre reading (ReadQuad):
+  // a first reading with up to 2 bit errors names the id, the corners are
+  // refined for that id, then a second reading on the refined corners must
+  // give that id exactly, in the same corner order, with the margin. Where
+  // that fails, the blur-model reading (ReadBlurredQuad), which fits the
+  // corners itself: an exact code that the model explains.
   void SmallTagPass(const cv::Mat& gray8, std::vector<TagDetection>* tags) {
     std::vector<std::vector<cv::Point2f>> accepted, rejected;
     std::vector<int> aruco_ids;
     cv::aruco::detectMarkers(gray8, aruco_dictionary_, accepted, aruco_ids, aruco_parameters_, rejected);
     accepted.insert(accepted.end(), rejected.begin(), rejected.end());
     const size_t first_pass = tags->size();
+    const auto known = [&](TagId id) {
+      return std::any_of(tags->begin(), tags->begin() + static_cast<std::ptrdiff_t>(first_pass),
+                         [id](const TagDetection& t) { return t.id == id; });
+    };
     for (const std::vector<cv::Point2f>& marker : accepted) {
       if (marker.size() != 4) continue;
       QuadCorners quad;
@@ -173,37 +182,67 @@ class AprilTagDetector final : public TagDetector {
       bool covered = false;
       for (size_t i = 0; i < first_pass && !covered; ++i) covered = InsideQuad((*tags)[i].corners, centre);
       if (covered) continue;
-      const std::optional<QuadReading> guess = ReadQuad(gray8, family_.get(), quad, 2, kSmallTagMinContrast);
-      if (!guess) continue;
-      const auto known = [&](TagId id) {
-        return std::any_of(tags->begin(), tags->begin() + static_cast<std::ptrdiff_t>(first_pass),
-                           [id](const TagDetection& t) { return t.id == id; });
-      };
-      if (known(guess->id)) continue;
-      TagDetection tag;
-      tag.id = guess->id;
-      tag.corners = guess->corners;
-      Layout(tag.id);
-      // aruco's corners (contour pixels) are up to ~1.5 px off: a tag whose
-      // refinement fails is dropped.
-      if (options_.refinement != CornerRefinement::kNone && !Refine(gray8, &tag)) continue;
-      const std::optional<QuadReading> check = ReadQuad(gray8, family_.get(), tag.corners, 0, kSmallTagMinContrast);
-      if (!check || check->id != tag.id || check->margin < options_.small_tag_min_margin) continue;
-      bool same_order = true;
-      for (int k = 0; k < 4; ++k) same_order = same_order && (check->corners[k] - tag.corners[k]).norm() < 1e-9;
-      if (!same_order) continue;
-      tag.hamming = 0;
-      tag.decision_margin = check->margin * check->contrast;  // grey levels, like libapriltag's
+      std::optional<TagDetection> tag = ReadByModuleCentres(gray8, quad);
+      if (!tag) tag = ReadByBlurModel(gray8, quad);
+      if (!tag || known(tag->id)) continue;
       // One tag per id: the better reading.
       auto it = std::find_if(tags->begin() + static_cast<std::ptrdiff_t>(first_pass), tags->end(),
-                             [&](const TagDetection& t) { return t.id == tag.id; });
+                             [&](const TagDetection& t) { return t.id == tag->id; });
       if (it == tags->end()) {
-        tags->push_back(tag);
-      } else if (tag.decision_margin > it->decision_margin) {
-        *it = tag;
+        tags->push_back(*tag);
+      } else if (tag->decision_margin > it->decision_margin) {
+        *it = *tag;
       }
     }
   }
+
+  std::optional<TagDetection> ReadByModuleCentres(const cv::Mat& gray8, const QuadCorners& quad) const {
+    const std::optional<QuadReading> guess = ReadQuad(gray8, family_.get(), quad, 2, kSmallTagMinContrast);
+    if (!guess) return std::nullopt;
+    TagDetection tag;
+    tag.id = guess->id;
+    tag.corners = guess->corners;
+    Layout(tag.id);
+    // aruco's corners (contour pixels) are up to ~1.5 px off: a tag whose
+    // refinement fails is dropped.
+    if (options_.refinement != CornerRefinement::kNone && !Refine(gray8, &tag)) return std::nullopt;
+    const std::optional<QuadReading> check = ReadQuad(gray8, family_.get(), tag.corners, 0, kSmallTagMinContrast);
+    if (!check || check->id != tag.id || check->margin < options_.small_tag_min_margin) return std::nullopt;
+    for (int k = 0; k < 4; ++k) {
+      if ((check->corners[k] - tag.corners[k]).norm() >= 1e-9) return std::nullopt;  // another corner order
+    }
+    tag.hamming = 0;
+    tag.decision_margin = check->margin * check->contrast;  // grey levels, like libapriltag's
+    return tag;
+  }
+
+  // The corners from the model fit, then refined like any tag's if the
+  // refined corners still read the code exactly (the edge-line fit is the
+  // measured-accurate one; on a glared or badly blurred tag it can slide).
+  std::optional<TagDetection> ReadByBlurModel(const cv::Mat& gray8, const QuadCorners& quad) const {
+    const std::optional<BlurredQuadReading> reading =
+        ReadBlurredQuad(gray8, family_.get(), quad, 0, kSmallTagMinContrast);
+    if (!reading || reading->residual > kMaxBlurModelResidual) return std::nullopt;
+    TagDetection tag;
+    tag.id = reading->reading.id;
+    tag.corners = reading->reading.corners;
+    tag.hamming = 0;
+    tag.decision_margin = reading->reading.margin * reading->reading.contrast;
+    if (options_.refinement == CornerRefinement::kNone) return tag;
+    Layout(tag.id);
+    TagDetection refined = tag;
+    if (!Refine(gray8, &refined)) return tag;
+    const std::optional<BlurredQuadReading> again =
+        ReadBlurredQuad(gray8, family_.get(), refined.corners, 0, kSmallTagMinContrast);
+    if (!again || again->reading.id != tag.id || again->residual > kMaxBlurModelResidual) return tag;
+    for (int k = 0; k < 4; ++k) {
+      if ((again->reading.corners[k] - refined.corners[k]).norm() > 2.0) return tag;  // another corner order
+    }
+    return refined;
+  }
+  // RMS misfit of the code's model over the contrast: ~0.03-0.15 on the
+  // swatbotics tags (0.15: one in a lamp's glare).
+  static constexpr double kMaxBlurModelResidual = 0.25;
   static constexpr double kSmallTagMinContrast = 10.0;  // grey levels, white ring over black border
 
   // Not thread-safe on a miss: RefineAll fills the cache first.
@@ -227,6 +266,20 @@ Result<std::unique_ptr<TagDetector>> TagDetector::Create(const TagDetectorOption
   if (Status status = options.Check(); !status) return status.error();
   Result<detail::FamilyPtr> family = detail::CreateAprilTagFamily(options.family);
   if (!family) return family.error();
+  if (options.small_tag_pass) {
+    if (!ArucoDictionaryFor(options.family)) {
+      return MakeError("small_tag_pass: OpenCV aruco has no dictionary for family " + options.family +
+                       " (tag36h11, tag36h10 and tag25h9 have one)");
+    }
+    // Reading arbitrary quads needs a code that few patterns match by
+    // chance: of 2^nbits patterns, 8 ncodes (corner orders) are codes.
+    const double chance = 8.0 * (*family)->ncodes / std::ldexp(1.0, static_cast<int>((*family)->nbits));
+    if (chance > 1e-4) {
+      return MakeError("small_tag_pass: family " + options.family + " is too weak to read tags from arbitrary quads (" +
+                       std::to_string((*family)->nbits) + " bits: about 1 quad in " +
+                       std::to_string(static_cast<int>(1.0 / chance)) + " reads as a code)");
+    }
+  }
   std::unique_ptr<TagDetector> detector = std::make_unique<AprilTagDetector>(options, std::move(*family));
   return detector;
 }

@@ -225,9 +225,11 @@ TEST(RealData, AprilTagTestDataIdsAndCorners) {
 // with margin 0 here too: the most permissive). Recall: the issue asks for
 // 100%; measured at quad_decimate 1: 227/236 by libapriltag alone (missed:
 // tags of ~2 px modules in IMG_1409, 1415, 1428, 1450, 1451; no libapriltag
-// setting tried finds them: see docs/detection.md), 232/236 with the
-// small-tag pass (still missed: IMG_1409 11, 13, IMG_1451 7, 9), at the
-// default quad_decimate 2: 216/236. This pins the measured recall.
+// setting tried finds them: see docs/detection.md), 235/236 with the
+// small-tag pass (its blur-model reading adds IMG_1409 13, IMG_1451 7, 9 to
+// the 232 of the module-centre reading; still missed: IMG_1409 11, under
+// ~4 px of motion blur), at the default quad_decimate 2: 216/236. This pins
+// the measured recall.
 TEST(RealDataSlow, SwatboticsMappingRecall) {
   TAGSFM_REQUIRE_SHARED_DATA("swatbotics-mapping/images/mapping_feb_2014");
   const fs::path dir = SharedDataDir() / "swatbotics-mapping/images/mapping_feb_2014";
@@ -236,7 +238,7 @@ TEST(RealDataSlow, SwatboticsMappingRecall) {
     double min_margin;
     int min_found;
   };
-  for (const Setting setting : {Setting{false, 0.02, 227}, Setting{true, 0.02, 232}, Setting{true, 0.0, 232}}) {
+  for (const Setting setting : {Setting{false, 0.02, 227}, Setting{true, 0.02, 235}, Setting{true, 0.0, 235}}) {
     std::ifstream in(dir / "groundtruth.txt");
     TagDetectorOptions options;
     options.quad_decimate = 1.0f;
@@ -276,6 +278,7 @@ TEST(RealDataSlow, SwatboticsMappingRecall) {
 // truth, the first pass's tags are unchanged.
 TEST(RealDataSlow, SmallTagPassOnRecordingsAddsNoFalseTag) {
   int added = 0, checked_frames = 0;
+  std::vector<double> added_errors;  // px, every corner of every added tag
   for (const std::string name : {"wall_small", "box_small", "box_photos"}) {
     const fs::path dir = testing::RecordingsDir() / name;
     if (!fs::exists(dir / "ground_truth")) continue;
@@ -317,7 +320,8 @@ TEST(RealDataSlow, SmallTagPassOnRecordingsAddsNoFalseTag) {
           for (int k = 0; k < 4; ++k) {
             const Eigen::Vector3d in_cam = pose->second * target->second[k];
             ASSERT_GT(in_cam.z(), 0.05) << name << " frame " << i << ": id " << t.id << " is behind the camera";
-            EXPECT_LT((camera.Project(in_cam) - t.corners[k]).norm(), 1.0)
+            added_errors.push_back((camera.Project(in_cam) - t.corners[k]).norm());
+            EXPECT_LT(added_errors.back(), 1.0)
                 << name << " frame " << i << ": id " << t.id << " corner " << k << " at " << t.corners[k].transpose()
                 << " truth " << camera.Project(in_cam).transpose() << " decimate " << decimate << " tags " << b->tags.size()
                 << " margin " << t.decision_margin;
@@ -326,7 +330,15 @@ TEST(RealDataSlow, SmallTagPassOnRecordingsAddsNoFalseTag) {
       }
     }
   }
-  std::printf("small-tag pass on the recordings: %d frames (x2 decimations), %d tags added\n", checked_frames, added);
+  std::sort(added_errors.begin(), added_errors.end());
+  ASSERT_FALSE(added_errors.empty());
+  std::printf("small-tag pass on the recordings: %d frames (x2 decimations), %d tags added, corners to the truth "
+              "median %.3f, p95 %.3f, max %.3f px\n",
+              checked_frames, added, added_errors[added_errors.size() / 2],
+              added_errors[added_errors.size() * 95 / 100], added_errors.back());
+  // Measured: 298 tags (60 by the module-centre reading alone), median 0.049 px.
+  EXPECT_GE(added, 250);
+  EXPECT_LT(added_errors[added_errors.size() / 2], 0.1);
 }
 
 // A NumPy .npy file of float64 (little-endian, C order): its shape and values.
@@ -422,6 +434,53 @@ TEST(RealDataSlow, VideoSingleTagCorners) {
   // order would give gaps of a tag side (~50 px).
   EXPECT_LT(median, 1.0);
   EXPECT_LT(max, 4.0);
+}
+
+// Where there is no tag of the family, the small-tag pass must not make one
+// up: the Middlebury object photos (no tags at all) and the swatbotics
+// chessboard photos (a few see the room's tag 0, which libapriltag finds:
+// the pass must add nothing to what it finds), for each family the pass
+// reads, at the most permissive margin. Measured: nothing added.
+TEST(RealDataSlow, SmallTagPassFindsNoTagWhereThereIsNone) {
+  TAGSFM_REQUIRE_SHARED_DATA("middlebury-ring");
+  std::vector<fs::path> images;
+  for (const char* dir : {"middlebury-ring/dinoSparseRing", "middlebury-ring/templeSparseRing",
+                          "swatbotics-mapping/images/mapping_feb_2014/calibration"}) {
+    if (!fs::exists(SharedDataDir() / dir)) continue;
+    for (const auto& entry : fs::directory_iterator(SharedDataDir() / dir)) {
+      const std::string ext = entry.path().extension().string();
+      if (ext == ".png" || ext == ".JPG" || ext == ".jpg") images.push_back(entry.path());
+    }
+  }
+  ASSERT_GE(images.size(), 32u);
+  for (const std::string family : {"tag36h11", "tag25h9"}) {
+    TagDetectorOptions options;
+    options.family = family;
+    options.quad_decimate = 1.0f;
+    auto plain = TagDetector::Create(options);
+    options.small_tag_pass = true;
+    options.small_tag_min_margin = 0.0;
+    auto with_pass = TagDetector::Create(options);
+    ASSERT_TRUE(plain.has_value() && with_pass.has_value()) << family;
+    int first_pass = 0, added = 0;
+    for (const fs::path& image : images) {
+      const cv::Mat gray = LoadGray(image);
+      auto a = (*plain)->Detect(gray, 0);
+      auto b = (*with_pass)->Detect(gray, 0);
+      ASSERT_TRUE(a.has_value() && b.has_value()) << image;
+      std::set<TagId> first;
+      for (const auto& t : a->tags) first.insert(t.id);
+      first_pass += static_cast<int>(first.size());
+      for (const auto& t : b->tags) {
+        if (first.count(t.id)) continue;
+        ++added;
+        ADD_FAILURE() << family << ": id " << t.id << " made up in " << image.filename() << " (margin "
+                      << t.decision_margin << ")";
+      }
+    }
+    std::printf("%s: %zu photos, %d tags found by libapriltag, %d added by the small-tag pass\n", family.c_str(),
+                images.size(), first_pass, added);
+  }
 }
 
 }  // namespace

@@ -38,15 +38,19 @@ struct TagDetectorOptions {
   int max_hamming = 0;                // reject decodes with more bit errors (0..2; also
                                       // the bits libapriltag tries to correct)
   // A second pass for tags libapriltag's segmentation misses (about 2 px
-  // modules, see docs/detection.md): OpenCV aruco's quad candidates, read
-  // by tagsfm's own sampling, refined like any tag and read again: only an
-  // exact code with every border module dark, every module of the white
-  // ring around it light and every bit at least small_tag_min_margin (of
-  // the local black-white contrast) from the threshold counts. Only ids the
-  // first pass did not find, refined successfully; off by default (costs
-  // ~8-11 ms CPU per frame at 816x612-1280x720, about as much as the
-  // quad_decimate 2 detection itself). With refinement none or apriltag the
-  // added tags keep aruco's corners (contour pixels, up to ~1.5 px off).
+  // modules, or blurred by about a module; see docs/detection.md): OpenCV
+  // aruco's quad candidates, read by tagsfm. First one sample per module
+  // centre: refined like any tag and read again, only an exact code with
+  // every border module dark, every module of the white ring around it light
+  // and every bit at least small_tag_min_margin (of the local black-white
+  // contrast) from the threshold counts. Where that fails, a model of the
+  // whole blurred tag fitted to the pixels (corners, blur, levels, bits):
+  // only an exact code that the model explains counts. Only ids the first
+  // pass did not find; off by default (costs ~10-20 ms CPU per frame at
+  // 816x612-1280x720, plus ~20 ms per blurred tag read by the model). With
+  // refinement none or apriltag the added tags keep the reading's corners.
+  // Needs a family OpenCV aruco knows and whose code is strong enough to
+  // read arbitrary quads: tag36h11, tag36h10, tag25h9 (Create fails else).
   bool small_tag_pass = false;
   double small_tag_min_margin = 0.02;
   // The lens, when known: with distortion the edge-line fit works in
