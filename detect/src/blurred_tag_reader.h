@@ -27,6 +27,7 @@ struct BlurredQuadReading {
   double residual = 0.0; // RMS of the model with the code's bits, over the contrast
   double blur_u = 0.0;   // the blur found along the tag's two axes: Gaussian sigma, modules
   double blur_v = 0.0;
+  double blur_correlation = 0.0;  // of the two axes' blur: a motion along neither
 };
 
 // Whether the family has the layout modelled here: a black border ring of

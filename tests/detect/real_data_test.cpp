@@ -225,11 +225,10 @@ TEST(RealData, AprilTagTestDataIdsAndCorners) {
 // with margin 0 here too: the most permissive). Recall: the issue asks for
 // 100%; measured at quad_decimate 1: 227/236 by libapriltag alone (missed:
 // tags of ~2 px modules in IMG_1409, 1415, 1428, 1450, 1451; no libapriltag
-// setting tried finds them: see docs/detection.md), 235/236 with the
-// small-tag pass (its blur-model reading adds IMG_1409 13, IMG_1451 7, 9 to
-// the 232 of the module-centre reading; still missed: IMG_1409 11, under
-// ~4 px of motion blur), at the default quad_decimate 2: 216/236. This pins
-// the measured recall.
+// setting tried finds them: see docs/detection.md), 236/236 with the
+// small-tag pass (its blur-model reading adds IMG_1409 11, 13 and IMG_1451 7,
+// 9 to the 232 of the module-centre reading; 11 only with the correlated
+// blur of a diagonal motion), at the default quad_decimate 2: 216/236.
 TEST(RealDataSlow, SwatboticsMappingRecall) {
   TAGSFM_REQUIRE_SHARED_DATA("swatbotics-mapping/images/mapping_feb_2014");
   const fs::path dir = SharedDataDir() / "swatbotics-mapping/images/mapping_feb_2014";
@@ -238,7 +237,7 @@ TEST(RealDataSlow, SwatboticsMappingRecall) {
     double min_margin;
     int min_found;
   };
-  for (const Setting setting : {Setting{false, 0.02, 227}, Setting{true, 0.02, 235}, Setting{true, 0.0, 235}}) {
+  for (const Setting setting : {Setting{false, 0.02, 227}, Setting{true, 0.02, 236}, Setting{true, 0.0, 236}}) {
     std::ifstream in(dir / "groundtruth.txt");
     TagDetectorOptions options;
     options.quad_decimate = 1.0f;
@@ -336,7 +335,7 @@ TEST(RealDataSlow, SmallTagPassOnRecordingsAddsNoFalseTag) {
               "median %.3f, p95 %.3f, max %.3f px\n",
               checked_frames, added, added_errors[added_errors.size() / 2],
               added_errors[added_errors.size() * 95 / 100], added_errors.back());
-  // Measured: 298 tags (60 by the module-centre reading alone), median 0.049 px.
+  // Measured: 348 tags (60 by the module-centre reading alone), median 0.051 px.
   EXPECT_GE(added, 250);
   EXPECT_LT(added_errors[added_errors.size() / 2], 0.1);
 }
