@@ -262,23 +262,30 @@ class AprilTagDetector final : public TagDetector {
 
 }  // namespace
 
+Status SmallTagPassCanRead(const std::string& family_name) {
+  Result<detail::FamilyPtr> family = detail::CreateAprilTagFamily(family_name);
+  if (!family) return family.error();
+  if (!ArucoDictionaryFor(family_name)) {
+    return MakeError("small_tag_pass: OpenCV aruco has no dictionary for family " + family_name +
+                     " (tag36h11, tag36h10 and tag25h9 have one)");
+  }
+  // Reading arbitrary quads needs a code that few patterns match by
+  // chance: of 2^nbits patterns, 8 ncodes (corner orders) are codes.
+  const double chance = 8.0 * (*family)->ncodes / std::ldexp(1.0, static_cast<int>((*family)->nbits));
+  if (chance > 1e-4) {
+    return MakeError("small_tag_pass: family " + family_name + " is too weak to read tags from arbitrary quads (" +
+                     std::to_string((*family)->nbits) + " bits: about 1 quad in " +
+                     std::to_string(static_cast<int>(1.0 / chance)) + " reads as a code)");
+  }
+  return Status::Ok();
+}
+
 Result<std::unique_ptr<TagDetector>> TagDetector::Create(const TagDetectorOptions& options) {
   if (Status status = options.Check(); !status) return status.error();
   Result<detail::FamilyPtr> family = detail::CreateAprilTagFamily(options.family);
   if (!family) return family.error();
   if (options.small_tag_pass) {
-    if (!ArucoDictionaryFor(options.family)) {
-      return MakeError("small_tag_pass: OpenCV aruco has no dictionary for family " + options.family +
-                       " (tag36h11, tag36h10 and tag25h9 have one)");
-    }
-    // Reading arbitrary quads needs a code that few patterns match by
-    // chance: of 2^nbits patterns, 8 ncodes (corner orders) are codes.
-    const double chance = 8.0 * (*family)->ncodes / std::ldexp(1.0, static_cast<int>((*family)->nbits));
-    if (chance > 1e-4) {
-      return MakeError("small_tag_pass: family " + options.family + " is too weak to read tags from arbitrary quads (" +
-                       std::to_string((*family)->nbits) + " bits: about 1 quad in " +
-                       std::to_string(static_cast<int>(1.0 / chance)) + " reads as a code)");
-    }
+    if (Status status = SmallTagPassCanRead(options.family); !status) return status.error();
   }
   std::unique_ptr<TagDetector> detector = std::make_unique<AprilTagDetector>(options, std::move(*family));
   return detector;

@@ -26,21 +26,31 @@ std::set<int> Ids(const nlohmann::json& image) {
 }
 
 // IMG_1451 lists tags 4-10, 12 and 14; at ~2 px modules libapriltag finds
-// no quad for 7, 8 and 9 (docs/detection.md); the small-tag pass reads all
-// three (8 by one sample per module, 7 and 9 by the blur model).
-TEST(DetectCommand, SmallTagsFlagAddsTheSmallTagsOfARealPhoto) {
+// no quad for 7, 8 and 9 (docs/detection.md); the small-tag pass, on by
+// default, reads all three (8 by one sample per module, 7 and 9 by the blur
+// model); --no-small-tags leaves libapriltag's; --small-tags for a family the
+// pass cannot read is an error naming it.
+TEST(DetectCommand, SmallTagPassReadsTheSmallTagsOfARealPhotoByDefault) {
   TAGSFM_REQUIRE_SHARED_DATA("swatbotics-mapping/images/mapping_feb_2014");
   const auto image = testing::SharedDataDir() / "swatbotics-mapping/images/mapping_feb_2014/IMG_1451.JPG";
   TempDir tmp;
   const std::string base = testing::TagsfmExe().string() + " detect " + image.string() + " --decimate 1";
-  ASSERT_EQ(RunCommand(base, tmp.path() / "plain.json"), 0) << ReadText(tmp.path() / "plain.json");
+  ASSERT_EQ(RunCommand(base + " --no-small-tags", tmp.path() / "plain.json"), 0) << ReadText(tmp.path() / "plain.json");
+  ASSERT_EQ(RunCommand(base, tmp.path() / "default.json"), 0);
   ASSERT_EQ(RunCommand(base + " --small-tags", tmp.path() / "small.json"), 0);
   const auto plain = nlohmann::json::parse(ReadText(tmp.path() / "plain.json"));
+  const auto by_default = nlohmann::json::parse(ReadText(tmp.path() / "default.json"));
   const auto small = nlohmann::json::parse(ReadText(tmp.path() / "small.json"));
   ASSERT_EQ(plain.size(), 1u);
+  ASSERT_EQ(by_default.size(), 1u);
   ASSERT_EQ(small.size(), 1u);
   EXPECT_EQ(Ids(plain[0]), (std::set<int>{4, 5, 6, 10, 12, 14}));
-  EXPECT_EQ(Ids(small[0]), (std::set<int>{4, 5, 6, 7, 8, 9, 10, 12, 14}));
+  EXPECT_EQ(Ids(by_default[0]), (std::set<int>{4, 5, 6, 7, 8, 9, 10, 12, 14}));
+  EXPECT_EQ(Ids(small[0]), Ids(by_default[0]));
+  const std::string weak = base + " --family tag16h5";
+  EXPECT_EQ(RunCommand(weak, tmp.path() / "weak.json"), 0);  // the pass left out
+  EXPECT_NE(RunCommand(weak + " --small-tags", tmp.path() / "weak_small.txt"), 0);
+  EXPECT_NE(ReadText(tmp.path() / "weak_small.txt").find("tag16h5"), std::string::npos);
 }
 
 TEST(DetectCommand, AnUnreadableImageIsNamedAndTheOthersAreReported) {

@@ -141,6 +141,7 @@ TEST(SmallTagPass, RefusesFamiliesItCannotRead) {
     ASSERT_FALSE(detector.has_value()) << family;
     EXPECT_NE(detector.error().message.find("small_tag_pass"), std::string::npos) << detector.error().message;
     EXPECT_NE(detector.error().message.find(family), std::string::npos) << detector.error().message;
+    EXPECT_FALSE(SmallTagPassCanRead(family).ok()) << family;
     options.small_tag_pass = false;
     EXPECT_TRUE(TagDetector::Create(options).has_value()) << family;
   }
@@ -149,7 +150,9 @@ TEST(SmallTagPass, RefusesFamiliesItCannotRead) {
     options.family = family;
     options.small_tag_pass = true;
     EXPECT_TRUE(TagDetector::Create(options).has_value()) << family;
+    EXPECT_TRUE(SmallTagPassCanRead(family).ok()) << family;
   }
+  EXPECT_FALSE(SmallTagPassCanRead("tag99h1").ok());
 }
 
 }  // namespace

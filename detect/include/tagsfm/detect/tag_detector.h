@@ -62,6 +62,10 @@ struct TagDetectorOptions {
   Status Check() const;  // names the wrong field
 };
 
+// Whether the small-tag pass can read tags of `family` (an error naming why
+// not: no aruco dictionary, or a code too weak to read arbitrary quads).
+Status SmallTagPassCanRead(const std::string& family);
+
 class TagDetector {
  public:
   static Result<std::unique_ptr<TagDetector>> Create(const TagDetectorOptions& options);
