@@ -5,7 +5,6 @@
 // and p95 of frames 100-200 against 900-1000, which see the same views (the
 // per-frame cost must not grow with the sequence).
 //   build/bench/recon_latency_bench [frames [known_map|no_map]]   (default: 1000, both)
-#include <time.h>
 
 #include <algorithm>
 #include <chrono>
@@ -16,19 +15,12 @@
 
 #include <nlohmann/json.hpp>
 
+#include "tagsfm/core/cpu_time.h"
 #include "tagsfm/recon/reconstructor.h"
 #include "tagsfm/recon/result_writer.h"
 #include "tagsfm/recon/synthetic_scene.h"
 
 namespace {
-
-// CPU time of this thread: on a shared machine the wall clock also counts
-// time the scheduler gave to other processes.
-double ThreadCpuMs() {
-  timespec ts{};
-  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
-  return ts.tv_sec * 1e3 + ts.tv_nsec * 1e-6;
-}
 
 double Percentile(std::vector<double> v, double q) {
   if (v.empty()) return 0;
@@ -51,9 +43,9 @@ nlohmann::json RunMode(const tagsfm::SyntheticScene& scene, double tag_size, boo
   int registered = 0;
   for (const auto& detections : scene.detections) {
     const auto t0 = std::chrono::steady_clock::now();
-    const double c0 = ThreadCpuMs();
+    const double c0 = tagsfm::ThreadCpuMs();
     const auto report = (*recon)->AddFrame(detections);
-    cpu_ms.push_back(ThreadCpuMs() - c0);
+    cpu_ms.push_back(tagsfm::ThreadCpuMs() - c0);
     ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
     registered += report.registered;
     (report.keyframe ? keyframe_ms : other_ms).push_back(ms.back());

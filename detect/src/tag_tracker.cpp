@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <ctime>
 #include <map>
 #include <optional>
 #include <set>
@@ -13,6 +12,7 @@
 #include <Eigen/Dense>
 
 #include "band_candidates.h"
+#include "tagsfm/core/cpu_time.h"
 #include "tag_detector_workers.h"
 
 namespace tagsfm {
@@ -95,12 +95,6 @@ std::map<TagId, QuadCorners> TagTracker::Predict(FrameId frame,
 }
 
 namespace {
-
-double ThreadCpuMs() {
-  timespec t{};
-  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
-  return 1e3 * static_cast<double>(t.tv_sec) + 1e-6 * static_cast<double>(t.tv_nsec);
-}
 
 double MsSince(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
