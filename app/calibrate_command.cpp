@@ -1,5 +1,7 @@
 // tagsfm calibrate REC: intrinsics from the targets for a recording without
-// a camera block; writes the camera block into REC/recording.yaml.
+// a camera block, as replay finds them (pipeline/: calibrated from the tag
+// views, then adjusted with every frame's pose and the map); writes the
+// camera block into REC/recording.yaml.
 #include <filesystem>
 #include <string>
 
@@ -7,9 +9,9 @@
 
 #include "command_registry.h"
 #include "replay_support.h"
-#include "tagsfm/capture/recording.h"
 #include "tagsfm/core/file_util.h"
-#include "tagsfm/recon/camera_calibration.h"
+#include "tagsfm/pipeline/drivers.h"
+#include "tagsfm/pipeline/target_map.h"
 
 namespace tagsfm {
 namespace {
@@ -22,59 +24,39 @@ struct CalibrateArgs {
 
 int RunCalibrate(const CalibrateArgs& args) {
   auto reader = RecordingReader::Open(args.recording);
-  if (!reader) {
-    spdlog::error("{}", reader.error().message);
-    return 1;
-  }
+  if (!reader) return Fail(reader.error(), 1);
   const auto yaml = reader->dir() / "recording.yaml";
   if (reader->info().camera && !args.force && !args.dry_run) {
-    spdlog::error("{}: already has a camera block (use --force to replace it)", yaml.string());
-    return 1;
+    return Fail(MakeError(yaml.string() + ": already has a camera block (use --force to replace it)"), 1);
   }
-  auto map = reader->LoadTargetMap();
-  if (!map) {
-    spdlog::error("{}", map.error().message);
-    return 1;
-  }
-  auto detector = DetectorForRecording(reader->info());
-  if (!detector) {
-    spdlog::error("{}: targets.family: {}", yaml.string(), detector.error().message);
-    return 1;
-  }
-  std::vector<DetectionSet> detections;
-  int width = 0, height = 0;
+  auto map = ResolveTargetMap(reader->info(), reader->dir(), "");
+  if (!map) return Fail(map.error(), 1);
+  PipelineInput input{reader->info(), *map, RecordingFrameLoader(*reader), yaml.string()};
+  input.info.camera.reset();  // calibrate, whatever the file says
+  PipelineOptions options;
+  options.features.enabled = false;
+  auto pipeline = Pipeline::Create(input, options);
+  if (!pipeline) return Fail(pipeline.error(), 1);
   ProgressLine progress("detect", reader->entries().size());
-  for (size_t i = 0; i < reader->entries().size(); ++i) {
-    auto frame = reader->LoadFrame(i);
-    progress.Update(i + 1);
-    if (!frame) {
-      spdlog::warn("skipping frame {}: {}", reader->entries()[i].frame, frame.error().message);
-      continue;
-    }
-    width = frame->gray.cols;
-    height = frame->gray.rows;
-    auto d = (*detector)->Detect(frame->gray, frame->index);
-    if (d) detections.push_back(std::move(*d));
-  }
+  ReplayLoopOptions loop;
+  loop.on_output = [](const FrameOutput& out) {
+    if (out.skipped) spdlog::warn("skipping frame {}: {}", out.frame, *out.skipped);
+  };
+  loop.on_progress = [&](size_t done, size_t) { progress.Update(done); };
+  ReplayRecording(*reader, **pipeline, loop);
   progress.Done();
-  auto calibration = CalibrateFromTargets(detections, reader->info().targets, width, height, *map, {});
-  if (!calibration) {
-    spdlog::error("{}: {}", reader->dir().string(), calibration.error().message);
-    return 1;
-  }
-  const CameraModel& c = calibration->camera;
-  spdlog::info("calibrated from {} tag views in {} frames: fx {:.2f} fy {:.2f} cx {:.2f} cy {:.2f} k1 {:.4f} k2 {:.4f}, "
-               "{:.3f} px RMS",
-               calibration->views, calibration->frames, c.fx, c.fy, c.cx, c.cy,
-               c.distortion.size() > 0 ? c.distortion[0] : 0.0, c.distortion.size() > 1 ? c.distortion[1] : 0.0,
-               calibration->rms_px);
+  auto result = (*pipeline)->Finish();
+  if (!result) return Fail(result.error(), 1);
+  const ReconstructionResult& r = result->reconstruction;
+  const CameraModel& c = r.camera;
+  spdlog::info("calibrated and adjusted over {} target corner views: fx {:.2f} fy {:.2f} cx {:.2f} cy {:.2f} "
+               "k1 {:.4f} k2 {:.4f}, {:.3f} px RMS",
+               r.observations, c.fx, c.fy, c.cx, c.cy, c.distortion.size() > 0 ? c.distortion[0] : 0.0,
+               c.distortion.size() > 1 ? c.distortion[1] : 0.0, r.reprojection_rms_px);
   if (args.dry_run) return 0;
   RecordingInfo info = reader->info();
   info.camera = c;
-  if (Status s = WriteFileAtomically(yaml, RecordingYamlText(info)); !s) {
-    spdlog::error("{}", s.error().message);
-    return 1;
-  }
+  if (Status s = WriteFileAtomically(yaml, RecordingYamlText(info)); !s) return Fail(s.error(), 1);
   return 0;
 }
 

@@ -1,35 +1,19 @@
 #pragma once
-// Pieces shared by `replay`, `run` and `calibrate`: the detector a recording
-// asks for, how the pipeline searches a stream of frames for tags, and a
-// progress line for terminals.
+// What `replay`, `run` and `calibrate` print: errors, the pipeline's
+// warnings, a progress line for terminals, the summary of a replay.
 #include <chrono>
-#include <memory>
 #include <string>
 
-#include "tagsfm/capture/recording.h"
-#include "tagsfm/detect/tag_detector.h"
-#include "tagsfm/detect/tag_tracker.h"
+#include "tagsfm/core/result.h"
+#include "tagsfm/pipeline/pipeline.h"
 
 namespace tagsfm {
 
-// The detector for a recording's tag family, sub-pixel corners on.
-Result<std::unique_ptr<TagDetector>> DetectorForRecording(const RecordingInfo& info);
-
-// How `replay` and `run` find the tags of frame after frame. Tracking (the
-// default): libapriltag only around where the tags of the frames before
-// are, plus entry bands, with a full-frame pass every 15 frames and at once
-// when a tag is lost (docs/detection.md: 3-4x less time per frame than
-// full-frame detection on video, same recall). Every frame: a full-frame
-// detection on each frame, for photo sets, where nothing carries over from
-// one frame to the next (tracking gives the same tags there, but tries the
-// stale regions first), with the recording's lens model in the corners'
-// edge fit (docs/detection.md, "Lens distortion").
-enum class TagSearch { kTracking, kEveryFrame };
-const char* TagSearchName(TagSearch search);                  // "tracking", "every_frame"
-Result<TagSearch> ParseTagSearch(const std::string& name);
-
-// Tags of a recording's frames, in order, searched as `search` says.
-Result<std::unique_ptr<TagTracker>> TagSearchForRecording(const RecordingInfo& info, TagSearch search);
+// Logs the error and returns `exit_code`.
+int Fail(const Error& error, int exit_code);
+void LogWarnings(Pipeline& pipeline);
+void LogCalibratedCamera(const ReconstructionResult& result);
+void PrintReplaySummary(const ReconstructionResult& result, const RunStats& stats, const std::string& out);
 
 bool StderrIsTerminal();
 

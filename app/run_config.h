@@ -2,15 +2,15 @@
 // The live daemon's config file (`tagsfm run --config FILE`): the camera
 // settings (`capture:`, see firmware_config/), the camera model and targets
 // (`camera:`, `targets:`, as in recording.yaml; optional when the source is a
-// recording, which knows them), and the daemon's own `run:` block.
+// recording, which knows them), the daemon's own `run:` block, and the
+// pipeline's options (`pipeline:`, as for `replay --config`).
 #include <filesystem>
 #include <optional>
 #include <string>
 
 #include "tagsfm/capture/capture_settings.h"
 #include "tagsfm/capture/recording.h"
-#include "replay_support.h"
-#include "tagsfm/feedback/live_feedback.h"
+#include "tagsfm/pipeline/pipeline_options.h"
 
 namespace tagsfm {
 
@@ -21,8 +21,9 @@ struct RunConfig {
   std::string results_dir;                 // result files when capture ends (default RECORD/results)
   std::string dashboard = "127.0.0.1:8080";
   size_t max_queue_frames = 60;            // frames waiting for reconstruction before live drops some
-  TagSearch tag_search = TagSearch::kTracking;  // run.tag_search: tracking or every_frame
-  LiveFeedbackOptions feedback;
+  // run.tag_search and run.point_error_goal_mm are short forms of
+  // pipeline.tag_search and pipeline.feedback.point_error_goal_m.
+  PipelineOptions pipeline;
 
   Status Check() const;
 };

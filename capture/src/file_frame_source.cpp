@@ -9,7 +9,12 @@ namespace {
 class FileFrameSource : public FrameSource {
  public:
   FileFrameSource(RecordingReader reader, bool as_fast_as_possible, std::string uri)
-      : reader_(std::move(reader)), fast_(as_fast_as_possible), uri_(std::move(uri)) {}
+      : reader_(std::move(reader)), info_(reader_.info()), fast_(as_fast_as_possible), uri_(std::move(uri)) {
+    // The map a recording names is relative to the recording, not to
+    // whoever plays it as a camera.
+    const std::filesystem::path map(info_.targets.map);
+    if (!map.empty() && map.is_relative()) info_.targets.map = (reader_.dir() / map).string();
+  }
 
   Result<std::optional<Frame>> Next() override {
     if (next_ >= reader_.entries().size()) return std::optional<Frame>();
@@ -19,11 +24,12 @@ class FileFrameSource : public FrameSource {
     if (!frame) return frame.error();
     return std::optional<Frame>(std::move(*frame));
   }
-  const RecordingInfo& info() const override { return reader_.info(); }
+  const RecordingInfo& info() const override { return info_; }
   std::string uri() const override { return uri_; }
 
  private:
   RecordingReader reader_;
+  RecordingInfo info_;
   bool fast_;
   std::string uri_;
   size_t next_ = 0;

@@ -15,12 +15,14 @@ RecordSummary RecordFrames(FrameSource& source, RecordingWriter& writer, const s
       summary.source_ended = true;
       break;
     }
-    const Frame& frame = **next;
-    if (Status s = writer.Append(frame); !s) {
-      summary.error = s.error();
+    Frame& frame = **next;
+    auto file = writer.Append(frame);
+    if (!file) {
+      summary.error = file.error();
       break;
     }
     ++summary.frames_written;
+    frame.source = file->string();
     if (on_frame) on_frame(frame);
   }
   return summary;

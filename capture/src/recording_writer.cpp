@@ -68,7 +68,7 @@ RecordingWriter::~RecordingWriter() {
   if (csv_fd_ >= 0) ::close(csv_fd_);
 }
 
-Status RecordingWriter::Append(const Frame& frame) {
+Result<std::filesystem::path> RecordingWriter::Append(const Frame& frame) {
   if (frame.image.empty()) return MakeError(dir_.string() + ": frame " + std::to_string(frame.index) + " has no image");
   char name[64];
   std::snprintf(name, sizeof name, "frames/%06lld.png", static_cast<long long>(frame.index));
@@ -78,15 +78,15 @@ Status RecordingWriter::Append(const Frame& frame) {
   if (!cv::imencode(".png", frame.image, png, params)) {
     return MakeError(dir_.string() + ": frame " + std::to_string(frame.index) + " cannot be encoded as PNG");
   }
-  if (Status s = WriteFileAtomically(dir_ / name, png); !s) return s;
+  if (Status s = WriteFileAtomically(dir_ / name, png); !s) return s.error();
   SyncDirectory(dir_ / "frames");
   // The row goes in only once its image is in place, in one write() so a
   // crash leaves at most one partial last row, which the reader skips.
   const std::string row = std::to_string(frame.index) + "," + std::to_string(frame.timestamp_ns) + "," + name + "\n";
-  if (Status s = WriteAll(csv_fd_, row, (dir_ / "frames.csv").string()); !s) return s;
+  if (Status s = WriteAll(csv_fd_, row, (dir_ / "frames.csv").string()); !s) return s.error();
   if (::fsync(csv_fd_) != 0) return MakeError((dir_ / "frames.csv").string() + ": fsync failed");
   ++frames_written_;
-  return Status::Ok();
+  return dir_ / name;
 }
 
 }  // namespace tagsfm

@@ -110,7 +110,7 @@ Result<SynthSummary> WriteSyntheticRecording(const SynthOptions& options, const 
     frame.timestamp_ns = path->timestamps_ns[i];
     frame.image = ApplySensorModel(renderer->Render(path->cam_from_world[i], options.blur), sensor, NoiseSeed(options.seed, i));
     summary.render_seconds += SecondsSince(frame_start);
-    if (Status s = (*writer)->Append(frame); !s) return s.error();
+    if (auto file = (*writer)->Append(frame); !file) return file.error();
     ++summary.frames;
   }
   summary.total_seconds = SecondsSince(start);

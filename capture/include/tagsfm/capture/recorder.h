@@ -18,7 +18,7 @@ struct RecordSummary {
 };
 
 // `on_frame` (optional) sees each frame after it is safely on disk, e.g. to
-// pass it on to reconstruction. `max_frames` 0 means no limit.
+// pass it on to reconstruction; its `source` is then the recorded file. `max_frames` 0 means no limit.
 RecordSummary RecordFrames(FrameSource& source, RecordingWriter& writer, const std::atomic<bool>& stop,
                            size_t max_frames = 0, const std::function<void(const Frame&)>& on_frame = {});
 

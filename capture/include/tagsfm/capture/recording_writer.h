@@ -18,8 +18,9 @@ class RecordingWriter {
   RecordingWriter(const RecordingWriter&) = delete;
   RecordingWriter& operator=(const RecordingWriter&) = delete;
 
-  // Stores frame.image losslessly as PNG frames/NNNNNN.png.
-  Status Append(const Frame& frame);
+  // Stores frame.image losslessly as PNG frames/NNNNNN.png; returns that
+  // file's path (the writer owns the naming: callers never rebuild it).
+  Result<std::filesystem::path> Append(const Frame& frame);
 
   const std::filesystem::path& dir() const { return dir_; }
   size_t frames_written() const { return frames_written_; }

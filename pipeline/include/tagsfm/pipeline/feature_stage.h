@@ -1,6 +1,5 @@
 #pragma once
-// The natural-feature half of the hybrid pipeline, as replay and the daemon
-// run it: SIFT tracks on keyframes (frames whose registered pose has moved
+// The natural-feature half of the hybrid pipeline: SIFT tracks on keyframes (frames whose registered pose has moved
 // enough since the last one: SIFT costs 10-50x a tag detection, and frames
 // closer together add no triangulation angle), triangulated at the end from
 // the final, target-derived poses, so the points are metric.
@@ -17,7 +16,12 @@
 
 namespace tagsfm {
 
-struct FeaturePipelineOptions {
+struct FeatureStageOptions {
+  bool enabled = true;  // false: targets only (photogrammetry alone)
+  // Track the keyframes at Finish, from the recording, instead of at once:
+  // the live loop then never waits for SIFT. Same frames, same order, same
+  // points.
+  bool defer = false;
   FeatureTrackerOptions tracker;
   FeatureTriangulationOptions triangulation;
   double keyframe_baseline = 0.03;   // camera moved by this fraction of the distance to the tags...
@@ -30,16 +34,13 @@ struct FeaturePipelineOptions {
   Status Check() const;
 };
 
-class FeaturePipeline {
+class FeatureStage {
  public:
-  static Result<std::unique_ptr<FeaturePipeline>> Create(const CameraModel& camera, const TargetConfig& targets,
-                                                         const FeaturePipelineOptions& options);
+  static Result<std::unique_ptr<FeatureStage>> Create(const CameraModel& camera, const TargetConfig& targets,
+                                                         const FeatureStageOptions& options);
 
   // Whether a frame, after reconstruction saw it, is a feature keyframe;
-  // if so it is the one the next frames' motion is measured from. The
-  // daemon selects live and tracks at the end, from the recording, so that
-  // SIFT never holds up the live loop; replay tracks at once. Both track the
-  // same frames in the same order, so their points agree.
+  // if so it is the one the next frames' motion is measured from.
   bool SelectKeyframe(const DetectionSet& detections, const FrameReport& report);
   // Tracks the features of the next selected keyframe. `colour`: the frame
   // as captured (8-bit BGR gives the points' colours).
@@ -51,13 +52,13 @@ class FeaturePipeline {
   int keyframes() const { return static_cast<int>(sets_.size()); }
 
  private:
-  FeaturePipeline(CameraModel camera, TargetConfig targets, FeaturePipelineOptions options,
+  FeatureStage(CameraModel camera, TargetConfig targets, FeatureStageOptions options,
                   std::unique_ptr<FeatureTracker> tracker);
   bool IsFarFromLastKeyframe(const DetectionSet& detections, const FrameReport& report) const;
 
   CameraModel camera_;
   TargetConfig targets_;
-  FeaturePipelineOptions options_;
+  FeatureStageOptions options_;
   std::unique_ptr<FeatureTracker> tracker_;
   std::optional<Rigid3d> last_keyframe_;
   std::vector<FeatureSet> sets_;

@@ -1,11 +1,11 @@
-#include "feature_pipeline.h"
+#include "tagsfm/pipeline/feature_stage.h"
 
 #include <algorithm>
 #include <cmath>
 
 namespace tagsfm {
 
-Status FeaturePipelineOptions::Check() const {
+Status FeatureStageOptions::Check() const {
   if (Status s = tracker.Check(); !s) return s;
   if (Status s = triangulation.Check(); !s) return s;
   if (!(keyframe_baseline >= 0)) return MakeError("features.keyframe_baseline must be >= 0");
@@ -14,12 +14,12 @@ Status FeaturePipelineOptions::Check() const {
   return Status::Ok();
 }
 
-FeaturePipeline::FeaturePipeline(CameraModel camera, TargetConfig targets, FeaturePipelineOptions options,
+FeatureStage::FeatureStage(CameraModel camera, TargetConfig targets, FeatureStageOptions options,
                                  std::unique_ptr<FeatureTracker> tracker)
     : camera_(std::move(camera)), targets_(std::move(targets)), options_(options), tracker_(std::move(tracker)) {}
 
-Result<std::unique_ptr<FeaturePipeline>> FeaturePipeline::Create(const CameraModel& camera, const TargetConfig& targets,
-                                                                 const FeaturePipelineOptions& options) {
+Result<std::unique_ptr<FeatureStage>> FeatureStage::Create(const CameraModel& camera, const TargetConfig& targets,
+                                                                 const FeatureStageOptions& options) {
   if (Status s = options.Check(); !s) return s.error();
   FeatureTrackerOptions tracker_options = options.tracker;
   const int side = std::max(camera.width, camera.height);
@@ -28,10 +28,10 @@ Result<std::unique_ptr<FeaturePipeline>> FeaturePipeline::Create(const CameraMod
   }
   auto tracker = FeatureTracker::Create(tracker_options);
   if (!tracker) return tracker.error();
-  return std::unique_ptr<FeaturePipeline>(new FeaturePipeline(camera, targets, options, std::move(*tracker)));
+  return std::unique_ptr<FeatureStage>(new FeatureStage(camera, targets, options, std::move(*tracker)));
 }
 
-bool FeaturePipeline::SelectKeyframe(const DetectionSet& detections, const FrameReport& report) {
+bool FeatureStage::SelectKeyframe(const DetectionSet& detections, const FrameReport& report) {
   if (!report.registered) return false;
   if (!last_keyframe_ || IsFarFromLastKeyframe(detections, report)) {
     last_keyframe_ = report.cam_from_world;
@@ -40,7 +40,7 @@ bool FeaturePipeline::SelectKeyframe(const DetectionSet& detections, const Frame
   return false;
 }
 
-bool FeaturePipeline::IsFarFromLastKeyframe(const DetectionSet& detections, const FrameReport& report) const {
+bool FeatureStage::IsFarFromLastKeyframe(const DetectionSet& detections, const FrameReport& report) const {
   if (RotationAngleDeg(report.cam_from_world.rotation, last_keyframe_->rotation) >= options_.keyframe_rotation_deg) return true;
   // Distance to the tags from their apparent size (median over the tags in
   // view): f * size / side.
@@ -56,14 +56,14 @@ bool FeaturePipeline::IsFarFromLastKeyframe(const DetectionSet& detections, cons
   return moved >= options_.keyframe_baseline * depths[depths.size() / 2];
 }
 
-Status FeaturePipeline::Track(const cv::Mat& gray, const cv::Mat& colour, const DetectionSet& detections) {
+Status FeatureStage::Track(const cv::Mat& gray, const cv::Mat& colour, const DetectionSet& detections) {
   auto set = tracker_->Track(gray, colour, detections);
   if (!set) return set.error();
   sets_.push_back(std::move(*set));
   return Status::Ok();
 }
 
-std::vector<FeaturePoint> FeaturePipeline::Triangulate(const PoseMap& cam_from_world, const CameraModel& camera) const {
+std::vector<FeaturePoint> FeatureStage::Triangulate(const PoseMap& cam_from_world, const CameraModel& camera) const {
   return TriangulateFeatureTracks(sets_, cam_from_world, camera, options_.triangulation);
 }
 

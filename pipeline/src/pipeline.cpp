@@ -1,0 +1,198 @@
+#include "tagsfm/pipeline/pipeline.h"
+
+#include <chrono>
+
+#include "tagsfm/feedback/live_feedback.h"
+#include "tagsfm/pipeline/feature_stage.h"
+#include "tagsfm/pipeline/tag_search.h"
+#include "tagsfm/recon/camera_calibration.h"
+#include "tagsfm/recon/reconstructor.h"
+
+namespace tagsfm {
+namespace {
+
+double MsSince(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+}
+
+std::string ModeOf(const std::optional<TargetCornerMap>& known_map) {
+  if (known_map && !known_map->empty()) return "known map (" + std::to_string(known_map->size()) + " targets held fixed)";
+  return "no map: targets learned, scale from the tag size";
+}
+
+}  // namespace
+
+struct Pipeline::State {
+  PipelineInput input;
+  PipelineOptions options;
+  std::chrono::steady_clock::time_point start = std::chrono::steady_clock::now();
+  std::unique_ptr<TagTracker> tracker;
+  std::optional<CameraModel> camera;
+  std::unique_ptr<Reconstructor> recon;  // once the camera is known
+  std::unique_ptr<FeatureStage> features;
+  std::optional<LiveFeedback> feedback;
+  // Kept until Finish: tags of frames seen before the intrinsics were
+  // known, and feature keyframes to track from the recording.
+  std::vector<std::pair<DetectionSet, std::int64_t>> uncalibrated;
+  std::vector<DetectionSet> deferred_keyframes;
+  int width = 0, height = 0;
+  RunStats stats;
+  std::vector<std::string> warnings;
+
+  Status StartReconstruction(const CameraModel& known_camera, bool refine_intrinsics);
+  void Reconstruct(const DetectionSet& detections, std::int64_t timestamp_ns, const Frame* frame, FrameOutput* out);
+  void TrackFeatures(const Frame& frame, const DetectionSet& detections);
+  Status Calibrate();
+  void TrackDeferredKeyframes();
+};
+
+Status Pipeline::State::StartReconstruction(const CameraModel& known_camera, bool refine_intrinsics) {
+  camera = known_camera;
+  ReconstructorOptions recon_options = options.recon;
+  recon_options.refine_intrinsics = recon_options.refine_intrinsics || refine_intrinsics;
+  auto created = Reconstructor::Create(known_camera, input.info.targets, input.known_map, recon_options);
+  if (!created) return MakeError(input.where + ": " + created.error().message);
+  recon = std::move(*created);
+  if (options.features.enabled) {
+    auto stage = FeatureStage::Create(known_camera, input.info.targets, options.features);
+    if (!stage) return stage.error();
+    features = std::move(*stage);
+  }
+  if (options.live_feedback) feedback.emplace(known_camera, input.info.targets, options.feedback);
+  return Status::Ok();
+}
+
+Result<std::unique_ptr<Pipeline>> Pipeline::Create(const PipelineInput& input, const PipelineOptions& options) {
+  if (Status s = options.Check(); !s) return s.error();
+  auto state = std::make_unique<State>();
+  state->input = input;
+  state->options = options;
+  state->stats.mode = ModeOf(input.known_map);
+  state->stats.tag_search = TagSearchName(options.tag_search);
+  auto tracker = MakeTagSearch(input.info, options.tag_search, options.detector, options.tracker);
+  if (!tracker) return MakeError(input.where + ": targets.family: " + tracker.error().message);
+  state->tracker = std::move(*tracker);
+  if (input.info.camera) {
+    if (Status s = state->StartReconstruction(*input.info.camera, false); !s) return s.error();
+  } else if (!input.reload) {
+    return MakeError(input.where + ": no camera block, and no way to read the frames again to calibrate");
+  }
+  return std::unique_ptr<Pipeline>(new Pipeline(std::move(state)));
+}
+
+Pipeline::Pipeline(std::unique_ptr<State> state) : state_(std::move(state)) {}
+Pipeline::~Pipeline() = default;
+
+const std::optional<CameraModel>& Pipeline::camera() const { return state_->camera; }
+
+std::vector<std::string> Pipeline::TakeWarnings() { return std::exchange(state_->warnings, {}); }
+
+FrameOutput Pipeline::Skip(FrameId frame, const std::string& why) {
+  ++state_->stats.frames;
+  ++state_->stats.frames_skipped;
+  state_->stats.skipped.emplace_back(frame, why);
+  FrameOutput out;
+  out.frame = frame;
+  out.skipped = why;
+  return out;
+}
+
+FrameOutput Pipeline::Process(const Frame& frame) {
+  State& s = *state_;
+  const auto t0 = std::chrono::steady_clock::now();
+  // Reconstruction tells the tracker where the mapped tags will be.
+  const std::map<TagId, QuadCorners> predicted =
+      s.recon && s.options.tag_search == TagSearch::kTracking ? s.recon->PredictTagCorners(frame.index)
+                                                              : std::map<TagId, QuadCorners>{};
+  auto detections = s.tracker->Track(frame.gray, frame.index, predicted);
+  if (!detections) return Skip(frame.index, detections.error().message);
+  ++s.stats.frames;
+  s.stats.detection_ms.push_back(MsSince(t0));
+  s.stats.image_names[frame.index] = std::filesystem::path(frame.source).filename().string();
+  s.width = frame.gray.cols;
+  s.height = frame.gray.rows;
+  FrameOutput out;
+  out.frame = frame.index;
+  out.timestamp_ns = frame.timestamp_ns;
+  if (s.recon) {
+    s.Reconstruct(*detections, frame.timestamp_ns, &frame, &out);
+  } else {
+    s.uncalibrated.emplace_back(*detections, frame.timestamp_ns);
+  }
+  out.detections = std::move(*detections);
+  return out;
+}
+
+void Pipeline::State::Reconstruct(const DetectionSet& detections, std::int64_t timestamp_ns, const Frame* frame,
+                                  FrameOutput* out) {
+  const auto t0 = std::chrono::steady_clock::now();
+  const FrameReport report = recon->AddFrame(detections);
+  stats.frame_latency_ms.push_back(MsSince(t0));
+  if (features && features->SelectKeyframe(detections, report)) {
+    if (frame && !options.features.defer) {
+      TrackFeatures(*frame, detections);
+    } else {
+      deferred_keyframes.push_back(detections);
+    }
+  }
+  if (feedback) out->status = feedback->Update(detections, report, timestamp_ns);
+  out->report = report;
+}
+
+void Pipeline::State::TrackFeatures(const Frame& frame, const DetectionSet& detections) {
+  const auto t0 = std::chrono::steady_clock::now();
+  if (Status s = features->Track(frame.gray, frame.image, detections); !s) {
+    warnings.push_back("frame " + std::to_string(detections.frame) + ": features: " + s.error().message);
+  }
+  stats.feature_ms.push_back(MsSince(t0));
+}
+
+Status Pipeline::State::Calibrate() {
+  std::vector<DetectionSet> sets;
+  for (const auto& [detections, timestamp] : uncalibrated) sets.push_back(detections);
+  auto calibration = CalibrateFromTargets(sets, input.info.targets, width, height, input.known_map, {});
+  if (!calibration) return MakeError(input.where + ": no camera block, and " + calibration.error().message);
+  // Calibrated here: the final adjustment refines the intrinsics.
+  if (Status s = StartReconstruction(calibration->camera, true); !s) return s;
+  for (const auto& [detections, timestamp] : uncalibrated) {
+    FrameOutput ignored;
+    Reconstruct(detections, timestamp, nullptr, &ignored);
+  }
+  uncalibrated.clear();
+  return Status::Ok();
+}
+
+void Pipeline::State::TrackDeferredKeyframes() {
+  for (const DetectionSet& detections : deferred_keyframes) {
+    auto frame = input.reload ? input.reload(detections.frame) : Result<Frame>(MakeError("no way to read it again"));
+    if (!frame) {
+      warnings.push_back("frame " + std::to_string(detections.frame) + ": features: " + frame.error().message);
+      continue;
+    }
+    TrackFeatures(*frame, detections);
+  }
+  deferred_keyframes.clear();
+}
+
+Result<PipelineResult> Pipeline::Finish() {
+  State& s = *state_;
+  if (!s.recon) {
+    if (Status status = s.Calibrate(); !status) return status.error();
+  }
+  PipelineResult out;
+  out.reconstruction = s.recon->Finish();
+  s.TrackDeferredKeyframes();
+  if (s.features) {
+    const auto t0 = std::chrono::steady_clock::now();
+    out.reconstruction.feature_points = s.features->Triangulate(out.reconstruction.Poses(), out.reconstruction.camera);
+    s.stats.triangulation_s = MsSince(t0) / 1000.0;
+  }
+  s.stats.full_frame_detections = s.tracker->stats().full_frame_detections;
+  s.stats.tag_search_recoveries = s.tracker->stats().recoveries;
+  s.stats.runtime_s = MsSince(s.start) / 1000.0;
+  s.stats.peak_rss_mb = PeakRssMb();
+  out.stats = s.stats;
+  return out;
+}
+
+}  // namespace tagsfm

@@ -1,0 +1,143 @@
+// The `pipeline:` block: one reader per options struct, field names as in
+// the structs.
+#include "tagsfm/pipeline/pipeline_options.h"
+#include "yaml_fields.h"
+
+namespace tagsfm {
+namespace {
+
+void ReadDetector(YamlFields f, TagDetectorOptions* o) {
+  f.Read("quad_decimate", &o->quad_decimate);
+  f.Read("quad_sigma", &o->quad_sigma);
+  f.Read("threads", &o->threads);
+  f.Read("refine_edges", &o->refine_edges);
+  f.Read("decode_sharpening", &o->decode_sharpening);
+  f.ReadChoice<CornerRefinement>("refinement", &o->refinement, ParseCornerRefinement);
+  f.Read("min_decision_margin", &o->min_decision_margin);
+  f.Read("max_hamming", &o->max_hamming);
+  f.Read("small_tag_pass", &o->small_tag_pass);
+  f.Read("small_tag_min_margin", &o->small_tag_min_margin);
+  f.Done();
+}
+
+void ReadTracker(YamlFields f, TagTrackerOptions* o) {
+  f.Read("full_frame_every", &o->full_frame_every);
+  f.Read("padding_px", &o->padding_px);
+  f.Read("padding_fraction", &o->padding_fraction);
+  f.Read("region_quad_decimate", &o->region_quad_decimate);
+  f.Read("region_coarse_module_px", &o->region_coarse_module_px);
+  f.Read("search_entry_bands", &o->search_entry_bands);
+  f.Read("entry_band_tag_sizes", &o->entry_band_tag_sizes);
+  f.Read("entry_band_margin_px", &o->entry_band_margin_px);
+  f.Read("entry_band_candidates", &o->entry_band_candidates);
+  f.Read("entry_band_candidates_min_module_px", &o->entry_band_candidates_min_module_px);
+  f.Read("entry_min_inflow_px", &o->entry_min_inflow_px);
+  f.Read("back_off_after_recovery", &o->back_off_after_recovery);
+  f.Done();
+}
+
+void ReadPose(YamlFields f, PoseEstimatorOptions* o) {
+  f.Read("ransac_threshold_px", &o->ransac_threshold_px);
+  f.Read("ransac_iterations", &o->ransac_iterations);
+  f.Read("ransac_confidence", &o->ransac_confidence);
+  f.Read("max_rms_px", &o->max_rms_px);
+  f.Read("corner_sigma_px", &o->corner_sigma_px);
+  f.Read("rms_sigmas", &o->rms_sigmas);
+  f.Read("outlier_sigmas", &o->outlier_sigmas);
+  f.Read("min_outlier_px", &o->min_outlier_px);
+  f.Read("min_inlier_ratio", &o->min_inlier_ratio);
+  f.Read("max_rotation_jump_deg", &o->max_rotation_jump_deg);
+  f.Read("planarity_ratio", &o->planarity_ratio);
+  f.Read("huber_px", &o->huber_px);
+  f.Read("refine_iterations", &o->refine_iterations);
+  f.Done();
+}
+
+void ReadAdjustment(YamlFields f, BundleAdjusterOptions* o) {
+  f.Read("window_keyframes", &o->window_keyframes);
+  f.Read("window_iterations", &o->window_iterations);
+  f.Read("global_iterations", &o->global_iterations);
+  f.Read("huber_px", &o->huber_px);
+  f.Read("global_threads", &o->global_threads);
+  f.Read("window_threads", &o->window_threads);
+  f.Read("compute_covariance", &o->compute_covariance);
+  f.Done();
+}
+
+void ReadRecon(YamlFields f, ReconstructorOptions* o) {
+  ReadPose(f.Block("pose"), &o->pose);
+  ReadAdjustment(f.Block("ba"), &o->ba);
+  f.Read("min_tag_view_angle_deg", &o->min_tag_view_angle_deg);
+  f.Read("max_pending_views", &o->max_pending_views);
+  f.Read("max_tag_init_rms_px", &o->max_tag_init_rms_px);
+  f.Read("remap_after_outlier_frames", &o->remap_after_outlier_frames);
+  f.Read("bootstrap_max_frames", &o->bootstrap_max_frames);
+  f.Read("bootstrap_min_angle_deg", &o->bootstrap_min_angle_deg);
+  f.Read("keyframe_min_translation_ratio", &o->keyframe_min_translation_ratio);
+  f.Read("keyframe_min_rotation_deg", &o->keyframe_min_rotation_deg);
+  f.Read("final_adjustment", &o->final_adjustment);
+  f.Read("refine_intrinsics", &o->refine_intrinsics);
+  f.Done();
+}
+
+void ReadFeatures(YamlFields f, FeatureStageOptions* o) {
+  f.Read("enabled", &o->enabled);
+  f.Read("defer", &o->defer);
+  f.Read("keyframe_baseline", &o->keyframe_baseline);
+  f.Read("keyframe_rotation_deg", &o->keyframe_rotation_deg);
+  f.Read("max_feature_image_side", &o->max_feature_image_side);
+  f.Read("max_features", &o->tracker.max_features);
+  f.Read("ratio", &o->tracker.ratio);
+  f.Read("epipolar_px", &o->tracker.epipolar_px);
+  f.Read("min_matches", &o->tracker.min_matches);
+  f.Read("tag_margin", &o->tracker.tag_margin);
+  f.Read("image_scale", &o->tracker.image_scale);
+  f.Read("min_track_length", &o->triangulation.min_track_length);
+  f.Read("min_angle_deg", &o->triangulation.min_angle_deg);
+  f.Read("max_reprojection_px", &o->triangulation.max_reprojection_px);
+  f.Read("max_iterations", &o->triangulation.max_iterations);
+  f.Done();
+}
+
+void ReadFeedback(YamlFields f, LiveFeedbackOptions* o) {
+  f.Read("point_error_goal_m", &o->point_error_goal_m);
+  f.Read("baseline_angle_deg", &o->baseline_angle_deg);
+  f.Read("min_targets_in_view", &o->min_targets_in_view);
+  f.Read("min_views_per_target", &o->min_views_per_target);
+  f.Read("min_direction_spread_deg", &o->min_direction_spread_deg);
+  f.Read("min_image_noise_px", &o->min_image_noise_px);
+  f.Done();
+}
+
+}  // namespace
+
+Status ReadPipelineOptions(const YAML::Node& block, const std::filesystem::path& file, PipelineOptions* options) {
+  Status status;
+  YamlFields f(block, "pipeline", file, &status);
+  f.ReadChoice<TagSearch>("tag_search", &options->tag_search, ParseTagSearch);
+  ReadDetector(f.Block("detector"), &options->detector);
+  ReadTracker(f.Block("tracker"), &options->tracker);
+  ReadRecon(f.Block("recon"), &options->recon);
+  ReadFeatures(f.Block("features"), &options->features);
+  ReadFeedback(f.Block("feedback"), &options->feedback);
+  f.Done();
+  if (!status) return status;
+  if (Status s = options->Check(); !s) return MakeError(file.string() + ": " + s.error().message);
+  return Status::Ok();
+}
+
+Result<PipelineOptions> ReadPipelineOptionsFile(const std::filesystem::path& file) {
+  YAML::Node root;
+  try {
+    root = YAML::LoadFile(file.string());
+  } catch (const YAML::BadFile&) {
+    return MakeError(file.string() + ": cannot be read");
+  } catch (const YAML::Exception&) {
+    return MakeError(file.string() + ": not valid YAML");
+  }
+  PipelineOptions options;
+  if (Status s = ReadPipelineOptions(root["pipeline"], file, &options); !s) return s.error();
+  return options;
+}
+
+}  // namespace tagsfm
