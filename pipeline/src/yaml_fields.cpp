@@ -14,11 +14,14 @@ const char* Expected() {
   return "text";
 }
 
+// A field yaml-cpp did not find is an invalid node, and asking its type throws.
+bool IsMap(const YAML::Node& node) { return node.IsDefined() && node.IsMap(); }
+
 }  // namespace
 
 YamlFields::YamlFields(YAML::Node node, std::string place, std::filesystem::path file, Status* status)
     : node_(std::move(node)), place_(std::move(place)), file_(std::move(file)), status_(status) {
-  if (node_ && !node_.IsNull() && !node_.IsMap()) Fail("", "expected a block of fields");
+  if (node_.IsDefined() && !node_.IsNull() && !node_.IsMap()) Fail("", "expected a block of fields");
 }
 
 void YamlFields::Fail(const std::string& name, const std::string& why) {
@@ -31,7 +34,7 @@ template <class T>
 bool YamlFields::Take(const char* name, T* value) {
   known_.insert(name);
   const YAML::Node& node = node_;  // const: looking a field up must not add it
-  if (!*status_ || !node.IsMap() || !node[name]) return false;
+  if (!*status_ || !IsMap(node) || !node[name].IsDefined()) return false;
   try {
     const T read = node[name].as<T>();
     if constexpr (std::is_floating_point_v<T>) {
@@ -54,12 +57,12 @@ bool YamlFields::Read(const char* name, std::string* value) { return Take(name, 
 YamlFields YamlFields::Block(const char* name) {
   known_.insert(name);
   const YAML::Node& node = node_;
-  YAML::Node child = node.IsMap() ? node[name] : YAML::Node();
+  YAML::Node child = IsMap(node) && node[name].IsDefined() ? node[name] : YAML::Node();
   return YamlFields(child, place_ + "." + name, file_, status_);
 }
 
 void YamlFields::Done() {
-  if (!*status_ || !node_.IsMap()) return;
+  if (!*status_ || !IsMap(node_)) return;
   for (const auto& item : node_) {
     const std::string key = item.first.as<std::string>();
     if (!known_.count(key)) return Fail(key, "unknown field");

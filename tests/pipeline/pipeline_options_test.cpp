@@ -1,0 +1,88 @@
+// The pipeline: block: values reach the structs, and every wrong value is a
+// one-line error naming the file and the field.
+#include <fstream>
+
+#include <gtest/gtest.h>
+
+#include "tagsfm/pipeline/pipeline_options.h"
+#include "test_paths.h"
+
+namespace tagsfm {
+namespace {
+
+class PipelineOptionsFile : public ::testing::Test {
+ protected:
+  Result<PipelineOptions> Read(const std::string& yaml) {
+    std::ofstream(file_) << yaml;
+    return ReadPipelineOptionsFile(file_);
+  }
+  std::string ErrorOf(const std::string& yaml) {
+    auto options = Read(yaml);
+    return options ? std::string("(no error)") : options.error().message;
+  }
+  testing::TempDir tmp_;
+  const std::filesystem::path file_ = tmp_.path() / "options.yaml";
+};
+
+TEST_F(PipelineOptionsFile, ValuesReachTheirStructsAndTheRestKeepDefaults) {
+  auto options = Read(
+      "pipeline:\n"
+      "  tag_search: every_frame\n"
+      "  detector: {quad_decimate: 1.5, refinement: apriltag}\n"
+      "  tracker: {full_frame_every: 7}\n"
+      "  recon:\n    keyframe_min_rotation_deg: 2.5\n    pose: {max_rms_px: 3}\n    ba: {window_keyframes: 5}\n"
+      "  features: {enabled: false, max_features: 500, min_track_length: 4}\n"
+      "  feedback: {point_error_goal_m: 0.002}\n");
+  ASSERT_TRUE(options) << options.error().message;
+  const PipelineOptions defaults;
+  EXPECT_EQ(options->tag_search, TagSearch::kEveryFrame);
+  EXPECT_FLOAT_EQ(options->detector.quad_decimate, 1.5f);
+  EXPECT_EQ(options->detector.refinement, CornerRefinement::kAprilTag);
+  EXPECT_EQ(options->detector.threads, defaults.detector.threads);
+  EXPECT_EQ(options->tracker.full_frame_every, 7);
+  EXPECT_DOUBLE_EQ(options->recon.keyframe_min_rotation_deg, 2.5);
+  EXPECT_DOUBLE_EQ(options->recon.pose.max_rms_px, 3.0);
+  EXPECT_EQ(options->recon.ba.window_keyframes, 5);
+  EXPECT_DOUBLE_EQ(options->recon.ba.huber_px, defaults.recon.ba.huber_px);
+  EXPECT_FALSE(options->features.enabled);
+  EXPECT_EQ(options->features.tracker.max_features, 500);
+  EXPECT_EQ(options->features.triangulation.min_track_length, 4);
+  EXPECT_DOUBLE_EQ(options->feedback.point_error_goal_m, 0.002);
+}
+
+TEST_F(PipelineOptionsFile, NoBlockGivesTheDefaults) {
+  auto options = Read("run:\n  record_dir: x\n");
+  ASSERT_TRUE(options) << options.error().message;
+  EXPECT_EQ(options->tag_search, TagSearch::kTracking);
+  EXPECT_TRUE(options->features.enabled);
+}
+
+TEST_F(PipelineOptionsFile, WrongValuesNameTheFileAndTheField) {
+  const std::string f = file_.string() + ": ";
+  EXPECT_EQ(ErrorOf("pipeline:\n  recon:\n    ba:\n      huber_px: soft\n"), f + "pipeline.recon.ba.huber_px: expected a number");
+  EXPECT_EQ(ErrorOf("pipeline:\n  recon:\n    ba:\n      huber_px: -1\n"), f + "pipeline.recon.ba.huber_px must be > 0");
+  EXPECT_EQ(ErrorOf("pipeline:\n  recon:\n    pose: {max_rms_px: 0}\n"), f + "pipeline.recon.pose.max_rms_px must be > 0");
+  EXPECT_EQ(ErrorOf("pipeline:\n  recon: {max_pending_views: 0}\n"), f + "pipeline.recon.max_pending_views must be >= 1");
+  EXPECT_EQ(ErrorOf("pipeline:\n  tracker: {full_frame_every: 2.5}\n"),
+            f + "pipeline.tracker.full_frame_every: expected a whole number");
+  EXPECT_EQ(ErrorOf("pipeline:\n  tracker: {ful_frame_every: 2}\n"), f + "pipeline.tracker.ful_frame_every: unknown field");
+  EXPECT_EQ(ErrorOf("pipeline:\n  features: {enabled: maybe}\n"), f + "pipeline.features.enabled: expected true or false");
+  EXPECT_EQ(ErrorOf("pipeline:\n  features: {min_track_length: 1}\n"),
+            f + "pipeline.features.min_track_length must be >= 2");
+  EXPECT_EQ(ErrorOf("pipeline:\n  feedback: {point_error_goal_m: .nan}\n"),
+            f + "pipeline.feedback.point_error_goal_m: expected a number");
+  EXPECT_EQ(ErrorOf("pipeline:\n  detector: 3\n"), f + "pipeline.detector: expected a block of fields");
+  EXPECT_NE(ErrorOf("pipeline:\n  tag_search: sometimes\n").find(f + "pipeline.tag_search: "), std::string::npos);
+  EXPECT_NE(ErrorOf("pipeline:\n  detector: {refinement: best}\n").find(f + "pipeline.detector.refinement: "),
+            std::string::npos);
+  EXPECT_EQ(ErrorOf("pipeline: [\n"), f + "not valid YAML");
+}
+
+TEST(PipelineOptionsFileMissing, IsNamed) {
+  auto options = ReadPipelineOptionsFile("/nonexistent/options.yaml");
+  ASSERT_FALSE(options);
+  EXPECT_EQ(options.error().message, "/nonexistent/options.yaml: cannot be read");
+}
+
+}  // namespace
+}  // namespace tagsfm
