@@ -78,6 +78,31 @@ TEST_F(PipelineOptionsFile, WrongValuesNameTheFileAndTheField) {
   EXPECT_EQ(ErrorOf("pipeline: [\n"), f + "not valid YAML");
 }
 
+// firmware_config/README.md lists every field with its default: the block
+// must read (no unknown field) and give the defaults.
+TEST_F(PipelineOptionsFile, TheDocumentedBlockReadsAndHoldsTheDefaults) {
+  const auto readme = std::filesystem::path(TAGSFM_RECORDINGS_DIR) / ".." / "firmware_config" / "README.md";
+  std::ifstream in(readme);
+  ASSERT_TRUE(in) << readme;
+  std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const size_t start = text.find("```yaml\npipeline:");
+  ASSERT_NE(start, std::string::npos) << "no pipeline: block in " << readme;
+  const size_t end = text.find("```", start + 7);
+  auto options = Read(text.substr(start + 8, end - start - 8));
+  ASSERT_TRUE(options) << options.error().message;
+  const PipelineOptions defaults;
+  EXPECT_FLOAT_EQ(options->detector.quad_decimate, defaults.detector.quad_decimate);
+  EXPECT_EQ(options->detector.refinement, defaults.detector.refinement);
+  EXPECT_EQ(options->tracker.full_frame_every, defaults.tracker.full_frame_every);
+  EXPECT_DOUBLE_EQ(options->tracker.entry_min_inflow_px, defaults.tracker.entry_min_inflow_px);
+  EXPECT_DOUBLE_EQ(options->recon.keyframe_min_translation_ratio, defaults.recon.keyframe_min_translation_ratio);
+  EXPECT_DOUBLE_EQ(options->recon.pose.ransac_threshold_px, defaults.recon.pose.ransac_threshold_px);
+  EXPECT_EQ(options->recon.ba.window_keyframes, defaults.recon.ba.window_keyframes);
+  EXPECT_EQ(options->features.tracker.max_features, defaults.features.tracker.max_features);
+  EXPECT_DOUBLE_EQ(options->features.triangulation.min_angle_deg, defaults.features.triangulation.min_angle_deg);
+  EXPECT_DOUBLE_EQ(options->feedback.point_error_goal_m, defaults.feedback.point_error_goal_m);
+}
+
 TEST(PipelineOptionsFileMissing, IsNamed) {
   auto options = ReadPipelineOptionsFile("/nonexistent/options.yaml");
   ASSERT_FALSE(options);
