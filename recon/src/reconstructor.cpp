@@ -518,9 +518,29 @@ bool Reconstructor::IsKeyframe(const FrameState& frame, bool added_tags) const {
   return (current.Center() - last.Center()).norm() >= options_.keyframe_min_translation_ratio * median_depth;
 }
 
+// Finish, phase by phase: the map completed from what is still waiting, the
+// frames registered late, a first adjustment where drift or unregistered
+// frames ask for it, the final adjustment, and the statistics.
 ReconstructionResult Reconstructor::Finish() {
   // Too few frames to wait for a second view: start from the best one.
   if (!started_ && !bootstrap_buffer_.empty()) StartFromBuffer();
+  MapWaitingTags();
+  RegisterLateFrames();
+  std::vector<FrameState*> registered = RegisteredFrames();
+  AdjustFirstAndRetry(&registered);
+  ReconstructionResult result;
+  result.tags_remapped = tags_remapped_;
+  if (options_.final_adjustment && !registered.empty()) AdjustFinally(registered, &result);
+  CollectReprojectionStatistics(registered, &result);
+  result.camera = camera_;
+  result.frames.assign(frames_.begin(), frames_.end());
+  result.tags = tags_;
+  result.pose_method_counts = method_counts_;
+  result.anchor_tag = anchor_;
+  return result;
+}
+
+void Reconstructor::MapWaitingTags() {
   // Tags still waiting get the views they have when these span enough angle
   // (or when there is a single view of everything): a tag seen from one
   // direction only would add its poorly known depth to the map.
@@ -545,17 +565,26 @@ ReconstructionResult Reconstructor::Finish() {
     tags_[id] = tag;
     pending_.erase(it);
   }
+}
+
+void Reconstructor::RegisterLateFrames() {
   // Frames that came before their tags were mapped get a second chance.
   for (auto& frame : frames_) {
     if (frame.registered || frame.tags.empty() || !started_) continue;
     FrameReport ignored;
     Register(frame, false, &ignored);
   }
-  ReconstructionResult result;
+}
+
+std::vector<FrameState*> Reconstructor::RegisteredFrames() {
   std::vector<FrameState*> registered;
   for (auto& frame : frames_) {
     if (frame.registered) registered.push_back(&frame);
   }
+  return registered;
+}
+
+void Reconstructor::AdjustFirstAndRetry(std::vector<FrameState*>* registered) {
   // A first adjustment spreads the drift of a loop; frames whose pose check
   // failed against the drifting map get a last chance against the adjusted
   // one. With learned tags it also comes before the outliers are chosen:
@@ -566,39 +595,43 @@ ReconstructionResult Reconstructor::Finish() {
   for (const auto& f : frames_) retry = retry || (!f.registered && !f.tags.empty());
   bool learned = false;
   for (const auto& [id, tag] : tags_) learned = learned || !tag.known;
-  if (options_.final_adjustment && !registered.empty() && (retry || learned) && started_) {
-    if (learned) {
-      for (FrameState* frame : registered) {
-        for (auto& obs : frame->tags) obs.outlier = false;
-      }
-    }
-    BundleAdjusterOptions first = options_.ba;
-    first.compute_covariance = false;
-    AdjustGlobally(registered, &tags_, fx_, fy_, first);
-    for (auto& frame : frames_) {
-      if (frame.registered || frame.tags.empty()) continue;
-      FrameReport ignored;
-      Register(frame, false, &ignored);
-      if (frame.registered) registered.push_back(&frame);
+  if (!options_.final_adjustment || registered->empty() || !(retry || learned) || !started_) return;
+  if (learned) {
+    for (FrameState* frame : *registered) {
+      for (auto& obs : frame->tags) obs.outlier = false;
     }
   }
-  result.tags_remapped = tags_remapped_;
-  if (options_.final_adjustment && !registered.empty()) {
-    result.outlier_observations = FlagOutlierObservations(registered);
-    const bool refine = options_.refine_intrinsics && camera_.kind == CameraModel::Kind::kPinhole &&
-                        camera_.distortion.size() <= 5 &&
-                        (camera_.distortion.size() < 3 || (camera_.distortion[2] == 0 && camera_.distortion[3] == 0)) &&
-                        (camera_.distortion.size() < 5 || camera_.distortion[4] == 0);
-    const GlobalAdjustmentSummary summary =
-        AdjustGlobally(registered, &tags_, fx_, fy_, options_.ba, refine ? &camera_ : nullptr);
-    result.intrinsics_refined = refine;
-    result.global_adjustment_converged = summary.converged;
-    result.covariance = summary.covariance;
-    result.covariance_note = summary.covariance_note;
-    result.global_adjustment_s = summary.solve_s;
-    result.covariance_s = summary.covariance_s;
+  BundleAdjusterOptions first = options_.ba;
+  first.compute_covariance = false;
+  AdjustGlobally(*registered, &tags_, fx_, fy_, first);
+  for (auto& frame : frames_) {
+    if (frame.registered || frame.tags.empty()) continue;
+    FrameReport ignored;
+    Register(frame, false, &ignored);
+    if (frame.registered) registered->push_back(&frame);
   }
-  // Reprojection statistics in pixels, through the full camera model.
+}
+
+void Reconstructor::AdjustFinally(const std::vector<FrameState*>& registered, ReconstructionResult* result) {
+  result->outlier_observations = FlagOutlierObservations(registered);
+  // Intrinsics are refined for the model the calibration estimates (pinhole, k1 k2).
+  const bool refine = options_.refine_intrinsics && camera_.kind == CameraModel::Kind::kPinhole &&
+                      camera_.distortion.size() <= 5 &&
+                      (camera_.distortion.size() < 3 || (camera_.distortion[2] == 0 && camera_.distortion[3] == 0)) &&
+                      (camera_.distortion.size() < 5 || camera_.distortion[4] == 0);
+  const GlobalAdjustmentSummary summary =
+      AdjustGlobally(registered, &tags_, fx_, fy_, options_.ba, refine ? &camera_ : nullptr);
+  result->intrinsics_refined = refine;
+  result->global_adjustment_converged = summary.converged;
+  result->covariance = summary.covariance;
+  result->covariance_note = summary.covariance_note;
+  result->global_adjustment_s = summary.solve_s;
+  result->covariance_s = summary.covariance_s;
+}
+
+void Reconstructor::CollectReprojectionStatistics(const std::vector<FrameState*>& registered,
+                                                  ReconstructionResult* result) const {
+  // In pixels, through the full camera model.
   double sum_all = 0;
   int n_all = 0;
   std::map<TagId, std::pair<double, int>> per_tag;
@@ -625,16 +658,10 @@ ReconstructionResult Reconstructor::Finish() {
       stats.track_length = it->second.second;
       stats.rms_px = std::sqrt(it->second.first / (4.0 * it->second.second));
     }
-    result.target_stats[id] = stats;
+    result->target_stats[id] = stats;
   }
-  result.camera = camera_;
-  result.frames.assign(frames_.begin(), frames_.end());
-  result.tags = tags_;
-  result.reprojection_rms_px = n_all ? std::sqrt(sum_all / n_all) : 0.0;
-  result.observations = n_all;
-  result.pose_method_counts = method_counts_;
-  result.anchor_tag = anchor_;
-  return result;
+  result->reprojection_rms_px = n_all ? std::sqrt(sum_all / n_all) : 0.0;
+  result->observations = n_all;
 }
 
 }  // namespace tagsfm

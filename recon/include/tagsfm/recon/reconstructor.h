@@ -100,6 +100,13 @@ class Reconstructor {
   void StartMapFromOneView(FrameState& frame);
   void StartFromBuffer();
   void RegisterBuffered(const FrameState* except);
+  // Finish's phases, in order.
+  void MapWaitingTags();
+  void RegisterLateFrames();
+  std::vector<FrameState*> RegisteredFrames();
+  void AdjustFirstAndRetry(std::vector<FrameState*>* registered);
+  void AdjustFinally(const std::vector<FrameState*>& registered, ReconstructionResult* result);
+  void CollectReprojectionStatistics(const std::vector<FrameState*>& registered, ReconstructionResult* result) const;
   // Pose from the mapped tags it sees, then map new tags and adjust.
   void Register(FrameState& frame, bool adjust, FrameReport* report);
   int MapPendingTags(FrameState& frame, std::vector<TagId>* added);
