@@ -56,6 +56,40 @@ int AddTagResiduals(ceres::Problem* problem, FrameState* frame, const TagObserva
   return 1;
 }
 
+// Each point's observations as residuals on the frames' poses (added where
+// a frame has none yet), through `intrinsics` when they are adjusted (else
+// null); returns how many point blocks went in.
+int AddPointResiduals(ceres::Problem* problem, const std::vector<FrameState*>& frames, const PointTerms& terms,
+                      double fx, double fy, double* intrinsics) {
+  std::map<FrameId, FrameState*> by_id;
+  for (FrameState* frame : frames) {
+    if (frame->registered) by_id[frame->frame] = frame;
+  }
+  ceres::LossFunction* loss = SharedLoss(terms.weight * terms.huber_px);
+  int added = 0;
+  for (AdjustedPoint& point : *terms.points) {
+    int views = 0;
+    for (const auto& [frame, pixel] : point.observations) {
+      auto it = by_id.find(frame);
+      if (it == by_id.end()) continue;
+      PoseParams* pose = &it->second->cam_from_world;
+      if (!problem->HasParameterBlock(pose->data)) AddPoseBlock(problem, pose);
+      if (views == 0) problem->AddParameterBlock(point.position.data(), 3);
+      if (intrinsics) {
+        problem->AddResidualBlock(PointPixelReprojectionError::Create(pixel, terms.weight), loss, pose->data,
+                                  point.position.data(), intrinsics);
+      } else {
+        const Eigen::Vector2d normalized = terms.camera->PixelToNormalized(pixel);
+        problem->AddResidualBlock(ReprojectionError::Create(normalized, terms.weight * fx, terms.weight * fy), loss,
+                                  pose->data, point.position.data());
+      }
+      ++views;
+    }
+    added += views > 0;
+  }
+  return added;
+}
+
 }  // namespace
 
 Status BundleAdjusterOptions::Check() const {
@@ -265,7 +299,7 @@ void ComputeCovariance(ceres::Problem* problem, const std::vector<FrameState*>& 
 
 GlobalAdjustmentSummary AdjustGlobally(const std::vector<FrameState*>& frames, std::map<TagId, MapTag>* tags,
                                        double fx, double fy, const BundleAdjusterOptions& options,
-                                       CameraModel* refine_camera) {
+                                       CameraModel* refine_camera, const PointTerms* points) {
   GlobalAdjustmentSummary out;
   ceres::Problem problem(ProblemOptions());
   double intrinsics[6] = {fx, fy, 0, 0, 0, 0};
@@ -315,6 +349,7 @@ GlobalAdjustmentSummary AdjustGlobally(const std::vector<FrameState*>& frames, s
       }
     }
   }
+  if (points && points->points) AddPointResiduals(&problem, frames, *points, fx, fy, refine_camera ? intrinsics : nullptr);
   if (problem.NumResidualBlocks() == 0) {
     out.covariance_note = "nothing to adjust";
     return out;

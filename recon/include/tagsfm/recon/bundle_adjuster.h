@@ -86,13 +86,29 @@ struct GlobalAdjustmentSummary {
   std::string covariance_note;
 };
 
-// Adjusts every registered frame's pose and every learned tag together.
-// With `refine_camera`, the intrinsics (fx, fy, cx, cy, k1, k2: a pinhole
-// camera calibrated from the targets) are adjusted too, in pixel space, and
-// written back.
+// Natural-feature points adjusted with the poses and tags (the hybrid): the
+// targets keep the datum and the metric scale, the points add their rays.
+struct AdjustedPoint {
+  Eigen::Vector3d position = Eigen::Vector3d::Zero();             // world, metres; adjusted in place
+  std::vector<std::pair<FrameId, Eigen::Vector2d>> observations;  // frame, pixel (distorted)
+};
+struct PointTerms {
+  std::vector<AdjustedPoint>* points = nullptr;
+  const CameraModel* camera = nullptr;  // undistorts the observations
+  // A point residual's weight against a target corner's: sigma_corner /
+  // sigma_point, so that each counts by its own precision (SIFT keypoints
+  // are ~10x noisier than the edge-fit corners).
+  double weight = 1.0;
+  double huber_px = 1.0;  // robust scale, in the points' own pixels
+};
+
+// Adjusts every registered frame's pose and every learned tag together, and
+// the points of `points` when given. With `refine_camera`, the intrinsics
+// (fx, fy, cx, cy, k1, k2: a pinhole camera calibrated from the targets) are
+// adjusted too, in pixel space, and written back.
 GlobalAdjustmentSummary AdjustGlobally(const std::vector<FrameState*>& frames, std::map<TagId, MapTag>* tags,
                                        double fx, double fy, const BundleAdjusterOptions& options,
-                                       CameraModel* refine_camera = nullptr);
+                                       CameraModel* refine_camera = nullptr, const PointTerms* points = nullptr);
 
 // A diagnostic of the known-size model: the same adjustment with every
 // learned tag's four corners as free 3D points (the anchor's held fixed, which

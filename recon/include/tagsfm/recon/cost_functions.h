@@ -188,6 +188,26 @@ struct FixedPointPixelReprojectionError {
   Eigen::Vector3d point;
 };
 
+// A free point seen by a camera whose intrinsics are adjusted, the residual
+// scaled by `weight`: blocks cam_from_world[7], point[3], intrinsics[6].
+struct PointPixelReprojectionError {
+  PointPixelReprojectionError(const Eigen::Vector2d& observed_px, double weight) : observed(observed_px), weight(weight) {}
+  template <class T>
+  bool operator()(const T* cam_from_world, const T* point, const T* intrinsics, T* residual) const {
+    const Eigen::Matrix<T, 3, 1> p(point[0], point[1], point[2]);
+    cost_detail::ProjectPixelResidual(cost_detail::Transform(cam_from_world, p), intrinsics, observed, residual);
+    residual[0] *= T(weight);
+    residual[1] *= T(weight);
+    return true;
+  }
+  static ceres::CostFunction* Create(const Eigen::Vector2d& observed_px, double weight) {
+    return new ceres::AutoDiffCostFunction<PointPixelReprojectionError, 2, 7, 3, 6>(
+        new PointPixelReprojectionError(observed_px, weight));
+  }
+  Eigen::Vector2d observed;
+  double weight;
+};
+
 // Soft known-size constraint between two free corner points (the relaxed tag
 // model): (|a - b| - length) / sigma. Blocks corner_a[3], corner_b[3].
 struct TagEdgeLengthError {
