@@ -189,9 +189,21 @@ bool SlidingWindowBundleAdjuster::Solve() {
   options.max_num_iterations = options_.window_iterations;
   options.num_threads = options_.window_threads;
   options.logging_type = ceres::SILENT;
+  // Ceres writes into the blocks as it goes: a solve that fails must not
+  // leave the window's poses and tags where it gave up.
+  std::vector<PoseParams> poses;
+  for (const FrameState* frame : window_) poses.push_back(frame->cam_from_world);
+  std::map<TagId, PoseParams> tags;
+  for (const auto& [id, tag] : tags_in_problem_) tags[id] = tag->world_from_tag;
   ceres::Solver::Summary summary;
   ceres::Solve(options, problem_.get(), &summary);
-  return summary.IsSolutionUsable();
+  bool usable = summary.IsSolutionUsable();
+  for (const FrameState* frame : window_) usable = usable && frame->cam_from_world.ToRigid().translation.allFinite();
+  if (usable) return true;
+  for (size_t i = 0; i < window_.size(); ++i) window_[i]->cam_from_world = poses[i];
+  for (const auto& [id, tag] : tags_in_problem_) tag->world_from_tag = tags[id];
+  ++failed_solves_;
+  return false;
 }
 
 namespace {

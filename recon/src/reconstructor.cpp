@@ -530,6 +530,7 @@ ReconstructionResult Reconstructor::Finish() {
   AdjustFirstAndRetry(&registered);
   ReconstructionResult result;
   result.tags_remapped = tags_remapped_;
+  result.window_solves_failed = window_->failed_solves();
   if (options_.final_adjustment && !registered.empty()) AdjustFinally(registered, &result);
   CollectReprojectionStatistics(registered, &result);
   result.camera = camera_;

@@ -122,3 +122,27 @@ TEST(BundleAdjuster, SlidingWindowStaysBoundedAndImprovesPerturbedTags) {
 
 }  // namespace
 }  // namespace tagsfm
+
+namespace tagsfm {
+namespace {
+
+TEST(BundleAdjuster, AWindowSolveThatFailsLeavesPosesAndTagsAsTheyWere) {
+  Problem p = MakeProblem(0.1, 4);
+  // A corner the detector should never hand on, but degenerate input must not
+  // turn into a NaN pose: the solve cannot evaluate its first step.
+  p.frames[1].tags[0].normalized[2] = Eigen::Vector2d(std::nan(""), 0.0);
+  SlidingWindowBundleAdjuster window(BundleAdjusterOptions{}, p.scene.camera.fx, p.scene.camera.fy);
+  for (auto& frame : p.frames) window.AddKeyframe(&frame, &p.tags);
+  std::vector<Rigid3d> before;
+  for (const auto& f : p.frames) before.push_back(f.cam_from_world.ToRigid());
+  const Rigid3d tag_before = p.tags.begin()->second.world_from_tag.ToRigid();
+  EXPECT_FALSE(window.Solve());
+  EXPECT_EQ(window.failed_solves(), 1);
+  for (size_t i = 0; i < p.frames.size(); ++i) {
+    EXPECT_EQ(p.frames[i].cam_from_world.ToRigid().translation, before[i].translation) << "frame " << i;
+  }
+  EXPECT_EQ(p.tags.begin()->second.world_from_tag.ToRigid().translation, tag_before.translation);
+}
+
+}  // namespace
+}  // namespace tagsfm

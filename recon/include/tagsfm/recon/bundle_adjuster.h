@@ -55,9 +55,12 @@ class SlidingWindowBundleAdjuster {
   // theirs back, the others' views of it become outliers (they saw it where
   // it no longer is, or they would pull it back to where it was mapped wrong).
   void ReplaceTag(MapTag* tag, const std::vector<FrameState*>& fitted);
-  // Solves the window (a few LM iterations). Skipped, returning false, when
-  // no tag in the window is free (poses alone are what PnP already refined).
+  // Solves the window (a few LM iterations); true when it ran and its
+  // solution is usable. Skipped when no tag in the window is free (poses
+  // alone are what PnP already refined). A failed solve leaves the window's
+  // poses and tags as they were, and is counted.
   bool Solve();
+  int failed_solves() const { return failed_solves_; }
   size_t keyframes() const { return window_.size(); }
   size_t residual_blocks() const;
 
@@ -75,6 +78,7 @@ class SlidingWindowBundleAdjuster {
   std::map<const FrameState*, std::vector<TagId>> tags_per_frame_;
   std::map<TagId, MapTag>* map_ = nullptr;
   const FrameState* fixed_frame_ = nullptr;
+  int failed_solves_ = 0;
 };
 
 struct GlobalAdjustmentSummary {
