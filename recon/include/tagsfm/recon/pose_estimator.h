@@ -1,11 +1,13 @@
 #pragma once
 // The camera pose of one frame from 2D-3D correspondences of target corners:
-// EPnP inside RANSAC (the paper's choice), then a robust Levenberg-Marquardt
-// refinement. Every pose is checked (reprojection RMS, cheirality, agreement
-// with the previous frame); when EPnP's fails, or the points are nearly
-// coplanar (where EPnP + LM was measured to land 25-40 degrees off), SQPnP and
-// IPPE are tried too and the best checked pose wins. Degenerate input gives an
-// unregistered result with a reason, never a wild pose.
+// EPnP on all correspondences (the paper's solver; tag ids make outliers
+// rare), then a robust Levenberg-Marquardt refinement. Every pose is checked
+// (reprojection RMS, cheirality, agreement with the previous frame); when
+// EPnP's fails, or the points are nearly coplanar (where EPnP + LM was
+// measured to land 25-40 degrees off), SQPnP and IPPE are tried too and the
+// best checked pose wins; only when none fits every correspondence does EPnP
+// run inside RANSAC (the fallback). Degenerate input gives an unregistered
+// result with a reason, never a wild pose.
 #include <array>
 #include <optional>
 #include <string>
