@@ -180,13 +180,17 @@ Result<PipelineResult> Pipeline::Finish() {
     if (Status status = s.Calibrate(); !status) return status.error();
   }
   PipelineResult out;
-  out.reconstruction = s.recon->Finish();
   s.TrackDeferredKeyframes();
+  Reconstructor::PointTriangulation triangulate;
   if (s.features) {
-    const auto t0 = std::chrono::steady_clock::now();
-    out.reconstruction.feature_points = s.features->Triangulate(out.reconstruction.Poses(), out.reconstruction.camera);
-    s.stats.triangulation_s = MsSince(t0) / 1000.0;
+    triangulate = [&s](const PoseMap& poses, const CameraModel& camera) {
+      const auto t0 = std::chrono::steady_clock::now();
+      auto points = s.features->Triangulate(poses, camera);
+      s.stats.triangulation_s = MsSince(t0) / 1000.0;
+      return points;
+    };
   }
+  out.reconstruction = s.recon->Finish(triangulate);
   s.stats.full_frame_detections = s.tracker->stats().full_frame_detections;
   s.stats.tag_search_recoveries = s.tracker->stats().recoveries;
   s.stats.runtime_s = MsSince(s.start) / 1000.0;

@@ -521,7 +521,7 @@ bool Reconstructor::IsKeyframe(const FrameState& frame, bool added_tags) const {
 // Finish, phase by phase: the map completed from what is still waiting, the
 // frames registered late, a first adjustment where drift or unregistered
 // frames ask for it, the final adjustment, and the statistics.
-ReconstructionResult Reconstructor::Finish() {
+ReconstructionResult Reconstructor::Finish(const PointTriangulation& triangulate) {
   // Too few frames to wait for a second view: start from the best one.
   if (!started_ && !bootstrap_buffer_.empty()) StartFromBuffer();
   MapWaitingTags();
@@ -532,6 +532,12 @@ ReconstructionResult Reconstructor::Finish() {
   result.tags_remapped = tags_remapped_;
   result.window_solves_failed = window_->failed_solves();
   if (options_.final_adjustment && !registered.empty()) AdjustFinally(registered, &result);
+  if (triangulate && !registered.empty()) {
+    PoseMap poses;
+    for (const FrameState* frame : registered) poses[frame->frame] = frame->cam_from_world.ToRigid();
+    result.feature_points = triangulate(poses, camera_);
+    if (options_.final_adjustment) AdjustWithPoints(registered, &result.feature_points, &result);
+  }
   CollectReprojectionStatistics(registered, &result);
   result.camera = camera_;
   result.frames.assign(frames_.begin(), frames_.end());
@@ -628,6 +634,55 @@ void Reconstructor::AdjustFinally(const std::vector<FrameState*>& registered, Re
   result->covariance_note = summary.covariance_note;
   result->global_adjustment_s = summary.solve_s;
   result->covariance_s = summary.covariance_s;
+}
+
+void Reconstructor::AdjustWithPoints(const std::vector<FrameState*>& registered, std::vector<FeaturePoint>* points,
+                                     ReconstructionResult* result) {
+  if (points->empty()) return;
+  // Each kind counts by its precision: the corners' noise per axis from the
+  // targets' reprojection after the final adjustment, the points' from
+  // their tracks (SIFT keypoints, ~10x noisier).
+  std::vector<double> point_rms;
+  for (const FeaturePoint& p : *points) point_rms.push_back(p.reprojection_rms_px);
+  std::nth_element(point_rms.begin(), point_rms.begin() + static_cast<long>(point_rms.size() / 2), point_rms.end());
+  ReconstructionResult tags_only;
+  CollectReprojectionStatistics(registered, &tags_only);
+  const double corner_sigma = std::max(0.01, tags_only.reprojection_rms_px / std::sqrt(2.0));
+  const double point_sigma = std::max(0.1, point_rms[point_rms.size() / 2] / std::sqrt(2.0));
+  std::vector<AdjustedPoint> adjusted(points->size());
+  for (size_t i = 0; i < points->size(); ++i) {
+    adjusted[i].position = (*points)[i].position;
+    adjusted[i].observations = (*points)[i].observations;
+  }
+  PointTerms terms;
+  terms.points = &adjusted;
+  terms.camera = &camera_;
+  terms.weight = corner_sigma / point_sigma;
+  terms.huber_px = 2 * point_sigma;
+  BundleAdjusterOptions options = options_.ba;
+  options.compute_covariance = false;  // the targets' covariance is the tags-only adjustment's
+  const GlobalAdjustmentSummary summary = AdjustGlobally(registered, &tags_, fx_, fy_, options,
+                                                         result->intrinsics_refined ? &camera_ : nullptr, &terms);
+  result->points_adjusted = static_cast<int>(adjusted.size());
+  result->points_adjustment_s = summary.solve_s;
+  // Kept where the adjusted point still reprojects like a point of its kind.
+  std::map<FrameId, Rigid3d> poses;
+  for (const FrameState* frame : registered) poses[frame->frame] = frame->cam_from_world.ToRigid();
+  std::vector<FeaturePoint> kept;
+  for (size_t i = 0; i < points->size(); ++i) {
+    FeaturePoint p = (*points)[i];
+    p.position = adjusted[i].position;
+    double sum = 0;
+    bool in_front = true;
+    for (const auto& [frame, pixel] : p.observations) {
+      const Eigen::Vector3d in_cam = poses.at(frame) * p.position;
+      in_front = in_front && in_cam.z() > 0;
+      sum += (camera_.Project(in_cam) - pixel).squaredNorm();
+    }
+    p.reprojection_rms_px = std::sqrt(sum / static_cast<double>(p.observations.size()));
+    if (in_front && p.reprojection_rms_px <= std::max(2.0 * (*points)[i].reprojection_rms_px, 1.0)) kept.push_back(p);
+  }
+  *points = std::move(kept);
 }
 
 void Reconstructor::CollectReprojectionStatistics(const std::vector<FrameState*>& registered,

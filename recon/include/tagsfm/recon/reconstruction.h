@@ -98,7 +98,9 @@ struct ReconstructionResult {
   std::map<std::string, int> pose_method_counts;  // "epnp", "sqpnp", "ippe", "fallback", ...
   std::optional<TagId> anchor_tag;           // the tag that fixes the world frame (no known map)
   bool global_adjustment_converged = false;
-  int window_solves_failed = 0;              // sliding-window solves whose result was unusable (undone)
+  int window_solves_failed = 0;
+  int points_adjusted = 0;                   // feature points in the last adjustment with the targets
+  double points_adjustment_s = 0;              // sliding-window solves whose result was unusable (undone)
   bool intrinsics_refined = false;           // `camera` is the adjusted one
   double global_adjustment_s = 0, covariance_s = 0;
   // Natural features triangulated from the final poses (empty with

@@ -5,6 +5,7 @@
 // hands back the whole result. No I/O inside: `replay` and the live daemon
 // both drive it with plain values.
 #include <deque>
+#include <functional>
 #include <map>
 #include <memory>
 #include <optional>
@@ -79,9 +80,15 @@ class Reconstructor {
   Reconstructor& operator=(const Reconstructor&) = delete;
 
   FrameReport AddFrame(const DetectionSet& detections);
+  // Natural-feature points from the final poses (the feature stage's
+  // triangulation), for Finish to adjust with the targets.
+  using PointTriangulation = std::function<std::vector<FeaturePoint>(const PoseMap&, const CameraModel&)>;
+
   // Registers what can still be registered against the final map, adjusts
-  // everything together and returns the result. Call once.
-  ReconstructionResult Finish();
+  // everything together and returns the result. With `triangulate`, the
+  // feature points from the adjusted poses then join a last adjustment with
+  // the targets (which keep the datum and the scale). Call once.
+  ReconstructionResult Finish(const PointTriangulation& triangulate = {});
 
   // Where the mapped tags will be in `frame` (a frame after the last one
   // added): the map projected with the pose extrapolated from the last two
@@ -106,6 +113,8 @@ class Reconstructor {
   std::vector<FrameState*> RegisteredFrames();
   void AdjustFirstAndRetry(std::vector<FrameState*>* registered);
   void AdjustFinally(const std::vector<FrameState*>& registered, ReconstructionResult* result);
+  void AdjustWithPoints(const std::vector<FrameState*>& registered, std::vector<FeaturePoint>* points,
+                        ReconstructionResult* result);
   void CollectReprojectionStatistics(const std::vector<FrameState*>& registered, ReconstructionResult* result) const;
   // Pose from the mapped tags it sees, then map new tags and adjust.
   void Register(FrameState& frame, bool adjust, FrameReport* report);
