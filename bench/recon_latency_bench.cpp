@@ -16,8 +16,8 @@
 #include <nlohmann/json.hpp>
 
 #include "tagsfm/core/cpu_time.h"
+#include "tagsfm/core/peak_rss.h"
 #include "tagsfm/recon/reconstructor.h"
-#include "tagsfm/recon/result_writer.h"
 #include "tagsfm/recon/synthetic_scene.h"
 
 namespace {

@@ -15,7 +15,7 @@
 #include "tagsfm/core/csv_formats.h"
 #include "tagsfm/core/file_util.h"
 #include "tagsfm/eval/scene_geometry.h"
-#include "tagsfm/recon/feature_points_csv.h"
+#include "tagsfm/export/feature_points_csv.h"
 #include "tagsfm/recon/truth_comparison.h"
 #include "run_command.h"
 #include "test_paths.h"
