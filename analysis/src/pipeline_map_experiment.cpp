@@ -7,9 +7,9 @@
 
 #include "experiment_common.h"
 #include "tagsfm/analysis/experiments.h"
+#include "tagsfm/eval/truth_comparison.h"
 #include "tagsfm/recon/reconstructor.h"
 #include "tagsfm/recon/synthetic_scene.h"
-#include "tagsfm/recon/truth_comparison.h"
 
 namespace tagsfm::analysis {
 namespace {
@@ -29,7 +29,7 @@ bool ReconstructScene(const SyntheticSceneOptions& scene_options, Accumulator& o
   const ReconstructionResult result = (*reconstructor)->Finish();
   PoseMap true_poses;
   for (size_t i = 0; i < scene.cam_from_world.size(); ++i) true_poses[scene.detections[i].frame] = scene.cam_from_world[i];
-  const TruthComparison comparison = CompareWithTruth(result.Poses(), result.Targets(), true_poses, scene.targets, true);
+  const eval::TruthComparison comparison = eval::CompareWithTruth(result.Poses(), result.Targets(), true_poses, scene.targets, true);
   out.Add(condition, kUnregistered, 1.0 - static_cast<double>(comparison.frames_compared) / scene.cam_from_world.size());
   if (comparison.targets_compared == 0 || comparison.frames_compared == 0) return false;
   out.Add(condition, kCornerRms, 1000.0 * comparison.corner_rms_m);
@@ -76,7 +76,7 @@ ExperimentResult RunPipelineMap(const ExperimentOptions& options) {
                    {"armoire-box", "", "unregistered_rate", Statistic::kMean, "fraction of frames not registered", false}};
   result.notes.push_back("recon's MakeSyntheticBoxScene (1.0 x 0.6 x 1.2 m box, 37 tags of 6 cm, 20 views, 1280x720, "
                          "focal 1000 px) through Reconstructor with default options and no known map; the estimate is "
-                         "aligned rigidly to the truth through the targets (recon's CompareWithTruth); one trial = one "
+                         "aligned rigidly to the truth through the targets (eval's CompareWithTruth); one trial = one "
                          "tag layout and camera path, shared by all conditions");
   return result;
 }

@@ -5,7 +5,7 @@
 
 #include <gtest/gtest.h>
 
-#include "tagsfm/recon/alignment.h"
+#include "tagsfm/eval/truth_comparison.h"
 #include "tagsfm/recon/measurement.h"
 #include "tagsfm/recon/synthetic_scene.h"
 #include "tagsfm/recon/tag_geometry.h"
@@ -73,13 +73,6 @@ TEST(Reconstructor, WithoutMapRecoversTargetsToScale) {
   const SyntheticScene scene = MakeSyntheticBoxScene(options);
   std::vector<FrameReport> reports;
   const ReconstructionResult result = RunScene(scene, BoxTargets(options), std::nullopt, &reports);
-  std::vector<Eigen::Vector3d> estimate, truth;
-  for (const auto& [id, corners] : result.Targets()) {
-    for (int k = 0; k < 4; ++k) {
-      estimate.push_back(corners[k]);
-      truth.push_back(scene.targets.at(id)[k]);
-    }
-  }
   // Every tag that two frames saw is in the map.
   std::map<TagId, int> views;
   for (const auto& d : scene.detections) {
@@ -88,10 +81,10 @@ TEST(Reconstructor, WithoutMapRecoversTargetsToScale) {
   int seen_twice = 0;
   for (const auto& [id, n] : views) seen_twice += n >= 2;
   EXPECT_GE(static_cast<int>(result.tags.size()), seen_twice - 1);
-  const Alignment rigid = AlignPoints(estimate, truth, false);
-  const Alignment similarity = AlignPoints(estimate, truth, true);
-  EXPECT_LT(rigid.rms_m, scene.largest_dimension_m / 5000) << "rigid RMS " << rigid.rms_m;
-  EXPECT_NEAR(similarity.scale, 1.0, 1e-3);
+  const eval::TruthComparison c = eval::CompareWithTruth({}, result.Targets(), {}, scene.targets, true);
+  EXPECT_EQ(c.targets_compared, static_cast<int>(result.tags.size()));
+  EXPECT_LT(c.corner_rms_m, scene.largest_dimension_m / 5000) << "rigid RMS " << c.corner_rms_m;
+  EXPECT_NEAR(c.scale, 1.0, 1e-3);
   EXPECT_LT(result.reprojection_rms_px, 0.2);
   int registered = 0;
   for (const auto& f : result.frames) registered += f.registered;
