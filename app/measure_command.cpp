@@ -11,9 +11,9 @@
 #include <spdlog/spdlog.h>
 
 #include "command_registry.h"
-#include "tagsfm/recon/feature_points_csv.h"
+#include "tagsfm/export/feature_points_csv.h"
+#include "tagsfm/export/target_covariance_csv.h"
 #include "tagsfm/recon/measurement.h"
-#include "tagsfm/recon/result_writer.h"
 
 namespace tagsfm {
 namespace {

@@ -10,9 +10,9 @@
 #include "command_registry.h"
 #include "replay_support.h"
 #include "tagsfm/dashboard/dashboard_server.h"
+#include "tagsfm/export/result_writer.h"
 #include "tagsfm/pipeline/drivers.h"
 #include "tagsfm/pipeline/target_map.h"
-#include "tagsfm/recon/result_writer.h"
 
 namespace tagsfm {
 namespace {

@@ -16,9 +16,9 @@
 #include <nlohmann/json.hpp>
 
 #include "tagsfm/core/cpu_time.h"
+#include "tagsfm/core/peak_rss.h"
 #include "tagsfm/recon/reconstructor.h"
-#include "tagsfm/recon/result_writer.h"
-#include "tagsfm/recon/synthetic_scene.h"
+#include "tagsfm/synth/box_scene.h"
 
 namespace {
 
@@ -32,7 +32,7 @@ nlohmann::json Summary(const std::vector<double>& ms) {
   return {{"p50", Percentile(ms, 0.5)}, {"p95", Percentile(ms, 0.95)}, {"max", Percentile(ms, 1.0)}};
 }
 
-nlohmann::json RunMode(const tagsfm::SyntheticScene& scene, double tag_size, bool known_map) {
+nlohmann::json RunMode(const tagsfm::synth::SyntheticScene& scene, double tag_size, bool known_map) {
   tagsfm::TargetConfig targets;
   targets.size_m = tag_size;
   auto recon = tagsfm::Reconstructor::Create(scene.camera, targets,
@@ -80,7 +80,7 @@ nlohmann::json RunMode(const tagsfm::SyntheticScene& scene, double tag_size, boo
 }  // namespace
 
 int main(int argc, char** argv) {
-  tagsfm::SyntheticSceneOptions options;
+  tagsfm::synth::SyntheticSceneOptions options;
   const int frames = argc > 1 ? std::max(300, std::atoi(argv[1])) : 1000;
   options.tags = 110;  // ~22 per face: a view of one or two faces sees ~30
   options.smooth_path = true;
@@ -91,7 +91,7 @@ int main(int argc, char** argv) {
   // so their cost differs only by the 800 frames of history between them.
   options.frames = frames - 200;
   options.arc_deg = 300 * (frames - 200) / 800.0;
-  tagsfm::SyntheticScene scene = tagsfm::MakeSyntheticBoxScene(options);
+  tagsfm::synth::SyntheticScene scene = tagsfm::synth::MakeSyntheticBoxScene(options);
   for (int i = 0; i < 200; ++i) {
     tagsfm::DetectionSet again = scene.detections[static_cast<size_t>(i)];
     again.frame = options.frames + i;

@@ -1,15 +1,15 @@
 // The whole target pipeline on a walk-around: recon's Reconstructor (pose
 // per frame, tags mapped from two views, sliding-window and final bundle
-// adjustment), without a known map, on recon's synthetic armoire-like box
-// scene; the estimated map and cameras against the truth.
+// adjustment), without a known map, on synth's armoire-like box scene of
+// projected corners; the estimated map and cameras against the truth.
 #include <memory>
 #include <optional>
 
 #include "experiment_common.h"
 #include "tagsfm/analysis/experiments.h"
+#include "tagsfm/eval/truth_comparison.h"
 #include "tagsfm/recon/reconstructor.h"
-#include "tagsfm/recon/synthetic_scene.h"
-#include "tagsfm/recon/truth_comparison.h"
+#include "tagsfm/synth/box_scene.h"
 
 namespace tagsfm::analysis {
 namespace {
@@ -17,8 +17,8 @@ namespace {
 enum Metric { kCornerRms = 0, kCentreMedian = 1, kRotationMedian = 2, kUnregistered = 3 };
 
 // One reconstruction of a synthetic walk-around; false when it produced nothing to compare.
-bool ReconstructScene(const SyntheticSceneOptions& scene_options, Accumulator& out, int condition) {
-  const SyntheticScene scene = MakeSyntheticBoxScene(scene_options);
+bool ReconstructScene(const synth::SyntheticSceneOptions& scene_options, Accumulator& out, int condition) {
+  const synth::SyntheticScene scene = synth::MakeSyntheticBoxScene(scene_options);
   TargetConfig targets;
   targets.size_m = scene_options.tag_size_m;
   ReconstructorOptions options;
@@ -29,7 +29,7 @@ bool ReconstructScene(const SyntheticSceneOptions& scene_options, Accumulator& o
   const ReconstructionResult result = (*reconstructor)->Finish();
   PoseMap true_poses;
   for (size_t i = 0; i < scene.cam_from_world.size(); ++i) true_poses[scene.detections[i].frame] = scene.cam_from_world[i];
-  const TruthComparison comparison = CompareWithTruth(result.Poses(), result.Targets(), true_poses, scene.targets, true);
+  const eval::TruthComparison comparison = eval::CompareWithTruth(result.Poses(), result.Targets(), true_poses, scene.targets, true);
   out.Add(condition, kUnregistered, 1.0 - static_cast<double>(comparison.frames_compared) / scene.cam_from_world.size());
   if (comparison.targets_compared == 0 || comparison.frames_compared == 0) return false;
   out.Add(condition, kCornerRms, 1000.0 * comparison.corner_rms_m);
@@ -56,7 +56,7 @@ ExperimentResult RunPipelineMap(const ExperimentOptions& options) {
   const Accumulator values = ParallelSweep(options.trials, grid.Conditions(), 4, options.threads, [&](int trial, Accumulator& out) {
     for (size_t x = 0; x < grid.xs.size(); ++x) {
       for (size_t s = 0; s < sigmas.size(); ++s) {
-        SyntheticSceneOptions scene;  // the armoire-like box: 37 tags of 6 cm, 20 photos on a 300-degree arc
+        synth::SyntheticSceneOptions scene;  // the armoire-like box: 37 tags of 6 cm, 20 photos on a 300-degree arc
         scene.min_distance_m = 0.8 * grid.xs[x];
         scene.max_distance_m = 1.2 * grid.xs[x];
         scene.noise_px = sigmas[s];
@@ -74,9 +74,9 @@ ExperimentResult RunPipelineMap(const ExperimentOptions& options) {
                    {"armoire-box", "", "camera_centre_median_mm", Statistic::kMedian, "camera centre error, median (mm)", true},
                    {"armoire-box", "", "rotation_median_deg", Statistic::kMedian, "camera rotation error, median (degrees)", true},
                    {"armoire-box", "", "unregistered_rate", Statistic::kMean, "fraction of frames not registered", false}};
-  result.notes.push_back("recon's MakeSyntheticBoxScene (1.0 x 0.6 x 1.2 m box, 37 tags of 6 cm, 20 views, 1280x720, "
+  result.notes.push_back("synth's MakeSyntheticBoxScene (1.0 x 0.6 x 1.2 m box, 37 tags of 6 cm, 20 views, 1280x720, "
                          "focal 1000 px) through Reconstructor with default options and no known map; the estimate is "
-                         "aligned rigidly to the truth through the targets (recon's CompareWithTruth); one trial = one "
+                         "aligned rigidly to the truth through the targets (eval's CompareWithTruth); one trial = one "
                          "tag layout and camera path, shared by all conditions");
   return result;
 }

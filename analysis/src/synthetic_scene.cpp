@@ -5,6 +5,8 @@
 
 #include <Eigen/Geometry>
 
+#include "tagsfm/synth/camera_path.h"
+
 namespace tagsfm::analysis {
 namespace {
 
@@ -110,7 +112,7 @@ std::vector<Rigid3d> HemisphereCameras(int count, const Eigen::Vector3d& centre,
                                                                   std::cos(elevation) * std::sin(azimuth),
                                                                   std::sin(elevation));
     const Eigen::Vector3d aim = centre + Eigen::Vector3d(aim_jitter(rng), aim_jitter(rng), aim_jitter(rng));
-    cameras.push_back(LookAt(eye, aim, Eigen::Vector3d::UnitZ()));
+    cameras.push_back(synth::LookAt(eye, aim, 0.0));  // world z up, no roll
   }
   return cameras;
 }
@@ -125,16 +127,6 @@ CameraModel ExperimentCamera() {
   camera.cx = (camera.width - 1) / 2.0;  // pixel centres at integers
   camera.cy = (camera.height - 1) / 2.0;
   return camera;
-}
-
-Rigid3d LookAt(const Eigen::Vector3d& eye, const Eigen::Vector3d& target, const Eigen::Vector3d& up) {
-  const Eigen::Vector3d forward = (target - eye).normalized();
-  const Eigen::Vector3d right = forward.cross(up).normalized();
-  const Eigen::Vector3d down = forward.cross(right);
-  Eigen::Matrix3d world_from_cam;
-  world_from_cam << right, down, forward;
-  const Eigen::Matrix3d cam_from_world = world_from_cam.transpose();
-  return Rigid3d(Eigen::Quaterniond(cam_from_world), -(cam_from_world * eye));
 }
 
 std::vector<SurfacePoint> BoxSurfacePoints(int count, double edge, std::mt19937& rng) {

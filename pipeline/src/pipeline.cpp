@@ -2,6 +2,7 @@
 
 #include <chrono>
 
+#include "tagsfm/core/peak_rss.h"
 #include "tagsfm/feedback/live_feedback.h"
 #include "tagsfm/pipeline/feature_stage.h"
 #include "tagsfm/pipeline/tag_search.h"

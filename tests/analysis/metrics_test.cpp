@@ -8,6 +8,7 @@
 #include "tagsfm/analysis/metrics.h"
 #include "tagsfm/analysis/statistics.h"
 #include "tagsfm/analysis/synthetic_scene.h"
+#include "tagsfm/synth/camera_path.h"
 
 namespace tagsfm::analysis {
 namespace {
@@ -24,8 +25,8 @@ TEST(AnalysisMetrics, RotationalErrorIsSignInvariantAndTwoSinQuarterAngle) {
 }
 
 TEST(AnalysisMetrics, ComparePosesUsesCameraCentres) {
-  const Rigid3d truth = LookAt(Eigen::Vector3d(5, 0, 1), Eigen::Vector3d::Zero(), Eigen::Vector3d::UnitZ());
-  const Rigid3d moved = LookAt(Eigen::Vector3d(5, 0.3, 1.4), Eigen::Vector3d::Zero(), Eigen::Vector3d::UnitZ());
+  const Rigid3d truth = synth::LookAt(Eigen::Vector3d(5, 0, 1), Eigen::Vector3d::Zero(), 0.0);
+  const Rigid3d moved = synth::LookAt(Eigen::Vector3d(5, 0.3, 1.4), Eigen::Vector3d::Zero(), 0.0);
   const PoseErrors errors = ComparePoses(moved, truth);
   EXPECT_NEAR(errors.position, 0.5, 1e-12);  // |(0, 0.3, 0.4)|
   EXPECT_GT(errors.rotation_deg, 0.0);
@@ -43,7 +44,7 @@ TEST(AnalysisMetrics, ReprojectionErrorIsTheMeanPixelDistance) {
 }
 
 TEST(AnalysisMetrics, LookAtPutsTheTargetOnTheOpticalAxisUpright) {
-  const Rigid3d cam_from_world = LookAt(Eigen::Vector3d(3, -4, 2), Eigen::Vector3d(0, 0, 1), Eigen::Vector3d::UnitZ());
+  const Rigid3d cam_from_world = synth::LookAt(Eigen::Vector3d(3, -4, 2), Eigen::Vector3d(0, 0, 1), 0.0);
   const Eigen::Vector3d target_in_cam = cam_from_world * Eigen::Vector3d(0, 0, 1);
   EXPECT_NEAR(target_in_cam.head<2>().norm(), 0.0, 1e-12);
   EXPECT_GT(target_in_cam.z(), 0.0);

@@ -15,8 +15,8 @@
 #include "tagsfm/core/csv_formats.h"
 #include "tagsfm/core/file_util.h"
 #include "tagsfm/eval/scene_geometry.h"
-#include "tagsfm/recon/feature_points_csv.h"
-#include "tagsfm/recon/truth_comparison.h"
+#include "tagsfm/eval/truth_comparison.h"
+#include "tagsfm/export/feature_points_csv.h"
 #include "run_command.h"
 #include "test_paths.h"
 
@@ -90,7 +90,7 @@ TEST(ReplayBoxSlow, KnownMapPosesMatchTheTruth) {
                          scratch.path());
   ASSERT_EQ(run.exit_code, 0) << run.err;
   ExpectContractFiles(out);
-  const TruthComparison c = CompareWithTruth(*ReadPosesCsv(out / "poses.csv"), *ReadTargetsCsv(out / "targets.csv"),
+  const eval::TruthComparison c = eval::CompareWithTruth(*ReadPosesCsv(out / "poses.csv"), *ReadTargetsCsv(out / "targets.csv"),
                                              *ReadPosesCsv(Box() / "ground_truth/poses.csv"),
                                              *ReadTargetsCsv(Box() / "ground_truth/targets.csv"), false);
   // Every frame registers. Measured (2026-11-22): rotation median 0.015 deg,
@@ -178,7 +178,7 @@ TEST(ReplayBoxSlow, WithoutMapTargetsAreMetricAndMatchTheTruth) {
   const CommandRun run = Tagsfm("replay " + Box().string() + " --out " + out.string(), scratch.path());
   ASSERT_EQ(run.exit_code, 0) << run.err;
   ExpectContractFiles(out);
-  const TruthComparison c = CompareWithTruth(*ReadPosesCsv(out / "poses.csv"), *ReadTargetsCsv(out / "targets.csv"),
+  const eval::TruthComparison c = eval::CompareWithTruth(*ReadPosesCsv(out / "poses.csv"), *ReadTargetsCsv(out / "targets.csv"),
                                              *ReadPosesCsv(Box() / "ground_truth/poses.csv"),
                                              *ReadTargetsCsv(Box() / "ground_truth/targets.csv"), true);
   // Measured (2026-11-22): 15 targets mapped (the others seen in too few of

@@ -4,21 +4,14 @@
 #include <cmath>
 
 #include "tagsfm/eval/evaluation.h"
+#include "test_camera.h"
 
 namespace tagsfm::eval {
 namespace {
 
 constexpr double kDeg = M_PI / 180;
 
-CameraModel TestCamera() {
-  CameraModel c;
-  c.width = 640;
-  c.height = 480;
-  c.fx = c.fy = 500;
-  c.cx = 319.5;
-  c.cy = 239.5;
-  return c;
-}
+CameraModel TestCamera() { return testing::PinholeCamera(640, 480, 500, 319.5, 239.5); }
 
 // Eight tags on two walls and five cameras looking at them from 2 m.
 EvaluationInput TruthAsResult() {

@@ -5,20 +5,14 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include "test_camera.h"
+
 namespace tagsfm {
 namespace {
 
 constexpr double kTagSize = 0.1;
 
-CameraModel Camera() {
-  CameraModel c;
-  c.width = 1280;
-  c.height = 720;
-  c.fx = c.fy = 1000;
-  c.cx = 640;
-  c.cy = 360;
-  return c;
-}
+CameraModel Camera() { return testing::PinholeCamera(1280, 720, 1000, 640, 360); }
 
 TargetConfig Targets() {
   TargetConfig t;

@@ -5,25 +5,25 @@
 
 #include <gtest/gtest.h>
 
-#include "tagsfm/recon/synthetic_scene.h"
 #include "tagsfm/recon/tag_geometry.h"
+#include "tagsfm/synth/box_scene.h"
 
 namespace tagsfm {
 namespace {
 
 // Frames and tags of a synthetic scene, as the reconstructor would hold them.
 struct Problem {
-  SyntheticScene scene;
+  synth::SyntheticScene scene;
   std::deque<FrameState> frames;
   std::map<TagId, MapTag> tags;
 };
 
 Problem MakeProblem(double noise_px, int frames) {
   Problem p;
-  SyntheticSceneOptions options;
+  synth::SyntheticSceneOptions options;
   options.frames = frames;
   options.noise_px = noise_px;
-  p.scene = MakeSyntheticBoxScene(options);
+  p.scene = synth::MakeSyntheticBoxScene(options);
   for (size_t i = 0; i < p.scene.detections.size(); ++i) {
     FrameState& f = p.frames.emplace_back();
     f.frame = static_cast<FrameId>(i);

@@ -9,7 +9,7 @@
 #include <gtest/gtest.h>
 
 #include "tagsfm/recon/reconstructor.h"
-#include "tagsfm/recon/synthetic_scene.h"
+#include "tagsfm/synth/box_scene.h"
 
 namespace tagsfm {
 namespace {
@@ -37,10 +37,10 @@ std::set<TagId> Ids(const std::map<TagId, QuadCorners>& corners) {
 // tags (in front, facing the camera within 75 degrees, inside the image) and
 // the same corners.
 TEST(CornerPrediction, TruePoseGivesTheVisibleTagsAndTheirCorners) {
-  SyntheticSceneOptions options;
+  synth::SyntheticSceneOptions options;
   options.frames = 30;
   options.noise_px = 0.0;
-  const SyntheticScene scene = MakeSyntheticBoxScene(options);
+  const synth::SyntheticScene scene = synth::MakeSyntheticBoxScene(options);
   const auto tags = KnownTags(scene.targets, options.tag_size_m);
   int compared = 0;
   for (size_t f = 0; f < scene.detections.size(); ++f) {
@@ -58,9 +58,9 @@ TEST(CornerPrediction, TruePoseGivesTheVisibleTagsAndTheirCorners) {
 }
 
 TEST(CornerPrediction, TagsBehindOrFacingAwayAreLeftOut) {
-  SyntheticSceneOptions options;
+  synth::SyntheticSceneOptions options;
   options.frames = 1;
-  const SyntheticScene scene = MakeSyntheticBoxScene(options);
+  const synth::SyntheticScene scene = synth::MakeSyntheticBoxScene(options);
   const auto tags = KnownTags(scene.targets, options.tag_size_m);
   const Rigid3d& pose = scene.cam_from_world[0];
   ASSERT_FALSE(ProjectMappedTags(scene.camera, pose, tags, {}).empty());
@@ -101,12 +101,12 @@ TEST(CornerPrediction, ConstantVelocityExtrapolatesOneFrameExactly) {
 // The reconstructor's prediction for the next frame of a video-like path
 // (known map): every tag the next frame sees, within a few pixels.
 TEST(CornerPrediction, ReconstructorPredictsTheNextFrameOfAVideo) {
-  SyntheticSceneOptions options;
+  synth::SyntheticSceneOptions options;
   options.frames = 120;
   options.arc_deg = 120.0;  // 1 degree per frame: a slow orbit, as a video of it
   options.smooth_path = true;
   options.noise_px = 0.1;
-  const SyntheticScene scene = MakeSyntheticBoxScene(options);
+  const synth::SyntheticScene scene = synth::MakeSyntheticBoxScene(options);
   TargetConfig targets;
   targets.size_m = options.tag_size_m;
   auto recon = Reconstructor::Create(scene.camera, targets, scene.targets, {});

@@ -5,19 +5,12 @@
 #include <gtest/gtest.h>
 
 #include "tagsfm/recon/feature_triangulation.h"
+#include "test_camera.h"
 
 namespace tagsfm {
 namespace {
 
-CameraModel TestCamera() {
-  CameraModel c;
-  c.width = 1280;
-  c.height = 720;
-  c.fx = c.fy = 1000;
-  c.cx = 640;
-  c.cy = 360;
-  return c;
-}
+CameraModel TestCamera() { return testing::PinholeCamera(1280, 720, 1000, 640, 360); }
 
 // Cameras on an arc 2 m from the origin, looking at it, `spread_deg` apart.
 std::vector<Rigid3d> ArcCameras(int count, double spread_deg) {

@@ -8,8 +8,8 @@
 #include <gtest/gtest.h>
 
 #include "tagsfm/recon/bundle_adjuster.h"
-#include "tagsfm/recon/synthetic_scene.h"
 #include "tagsfm/recon/tag_geometry.h"
+#include "tagsfm/synth/box_scene.h"
 
 namespace tagsfm {
 namespace {
@@ -18,7 +18,7 @@ constexpr double kCornerNoisePx = 0.05;  // edge-fit corners
 constexpr double kPointNoisePx = 0.4;    // SIFT keypoints
 
 struct Scene {
-  SyntheticScene truth;
+  synth::SyntheticScene truth;
   std::deque<FrameState> frames;
   std::map<TagId, MapTag> tags;
   std::vector<Eigen::Vector3d> true_points;
@@ -30,10 +30,10 @@ struct Scene {
 // them in view, `outlier_share` of the observations moved 5-15 px.
 Scene MakeScene(double outlier_share, std::uint32_t seed) {
   Scene s;
-  SyntheticSceneOptions options;
+  synth::SyntheticSceneOptions options;
   options.noise_px = kCornerNoisePx;
   options.seed = seed;
-  s.truth = MakeSyntheticBoxScene(options);
+  s.truth = synth::MakeSyntheticBoxScene(options);
   std::mt19937 rng(seed);
   std::normal_distribution<double> n(0, 1);
   std::uniform_real_distribution<double> u(-0.5, 0.5);

@@ -5,8 +5,8 @@
 
 #include <gtest/gtest.h>
 
-#include "tagsfm/recon/synthetic_scene.h"
 #include "tagsfm/recon/tag_geometry.h"
+#include "tagsfm/synth/box_scene.h"
 
 namespace tagsfm {
 namespace {
@@ -16,7 +16,7 @@ struct Correspondences {
   std::vector<Eigen::Vector2d> normalized;
 };
 
-Correspondences FromFrame(const SyntheticScene& scene, size_t frame) {
+Correspondences FromFrame(const synth::SyntheticScene& scene, size_t frame) {
   Correspondences c;
   std::vector<Eigen::Vector2d> pixels;
   for (const auto& det : scene.detections[frame].tags) {
@@ -36,10 +36,10 @@ TEST(PoseEstimator, RecoversTheTruePoseWithinNoiseBounds) {
   // coupling: tilt error ~ sigma/f / sqrt(N) * (depth/extent)^2 ~ 0.04 deg,
   // so the worst frame is allowed 0.2 deg and 1 cm; frames seeing two faces
   // are ~0.01 deg, which bounds the median.
-  SyntheticSceneOptions options;
+  synth::SyntheticSceneOptions options;
   options.frames = 30;
   options.noise_px = 0.1;
-  const SyntheticScene scene = MakeSyntheticBoxScene(options);
+  const synth::SyntheticScene scene = synth::MakeSyntheticBoxScene(options);
   PoseEstimatorOptions pose_options;
   std::vector<double> rotation_errors;
   for (size_t i = 0; i < scene.detections.size(); ++i) {
@@ -64,11 +64,11 @@ TEST(PoseEstimator, ErrorGrowsWithNoise) {
   double error_at[2] = {0, 0};
   const double noise[2] = {0.05, 0.5};
   for (int n = 0; n < 2; ++n) {
-    SyntheticSceneOptions options;
+    synth::SyntheticSceneOptions options;
     options.frames = 20;
     options.noise_px = noise[n];
     options.seed = 7;
-    const SyntheticScene scene = MakeSyntheticBoxScene(options);
+    const synth::SyntheticScene scene = synth::MakeSyntheticBoxScene(options);
     int count = 0;
     for (size_t i = 0; i < scene.detections.size(); ++i) {
       const Correspondences c = FromFrame(scene, i);
@@ -85,10 +85,10 @@ TEST(PoseEstimator, ErrorGrowsWithNoise) {
 }
 
 TEST(PoseEstimator, RejectsOutlierTags) {
-  SyntheticSceneOptions options;
+  synth::SyntheticSceneOptions options;
   options.frames = 5;
   options.noise_px = 0.1;
-  const SyntheticScene scene = MakeSyntheticBoxScene(options);
+  const synth::SyntheticScene scene = synth::MakeSyntheticBoxScene(options);
   Correspondences c = FromFrame(scene, 2);
   ASSERT_GE(c.points.size(), 24u);
   // One tag's corners 40 px off (a wrongly decoded id, say).
@@ -197,10 +197,10 @@ TEST(PoseEstimator, MeasureCornerNoiseRecoversTheNoiseFromTagShapes) {
   // over ~150-400 tags) is within 15 % of the truth (the median of a
   // chi-square with 2 dof over n samples has a relative spread ~1/sqrt(n)).
   for (double noise : {0.1, 1.0, 3.0}) {
-    SyntheticSceneOptions options;
+    synth::SyntheticSceneOptions options;
     options.frames = 15;
     options.noise_px = noise;
-    const SyntheticScene scene = MakeSyntheticBoxScene(options);
+    const synth::SyntheticScene scene = synth::MakeSyntheticBoxScene(options);
     std::vector<std::array<Eigen::Vector2d, 4>> tags;
     std::vector<double> sizes;
     for (const auto& frame : scene.detections) {

@@ -5,21 +5,21 @@
 
 #include <gtest/gtest.h>
 
-#include "tagsfm/recon/alignment.h"
+#include "tagsfm/eval/truth_comparison.h"
 #include "tagsfm/recon/measurement.h"
-#include "tagsfm/recon/synthetic_scene.h"
 #include "tagsfm/recon/tag_geometry.h"
+#include "tagsfm/synth/box_scene.h"
 
 namespace tagsfm {
 namespace {
 
-TargetConfig BoxTargets(const SyntheticSceneOptions& options) {
+TargetConfig BoxTargets(const synth::SyntheticSceneOptions& options) {
   TargetConfig config;
   config.size_m = options.tag_size_m;
   return config;
 }
 
-ReconstructionResult RunScene(const SyntheticScene& scene, const TargetConfig& targets,
+ReconstructionResult RunScene(const synth::SyntheticScene& scene, const TargetConfig& targets,
                          const std::optional<TargetCornerMap>& map, std::vector<FrameReport>* reports = nullptr) {
   auto recon = Reconstructor::Create(scene.camera, targets, map, {});
   EXPECT_TRUE(recon.has_value());
@@ -38,10 +38,10 @@ double Median(std::vector<double> v) {
 TEST(Reconstructor, KnownMapGivesTruePosesForEveryFrame) {
   // Known map, 0.1 px corners: every frame registers; the errors are those
   // of single-frame PnP (bounds as in PoseEstimator's test).
-  SyntheticSceneOptions options;
+  synth::SyntheticSceneOptions options;
   options.frames = 25;
   options.noise_px = 0.1;
-  const SyntheticScene scene = MakeSyntheticBoxScene(options);
+  const synth::SyntheticScene scene = synth::MakeSyntheticBoxScene(options);
   const ReconstructionResult result = RunScene(scene, BoxTargets(options), scene.targets);
   std::vector<double> rotation, centre;
   for (size_t i = 0; i < scene.detections.size(); ++i) {
@@ -67,19 +67,12 @@ TEST(Reconstructor, WithoutMapRecoversTargetsToScale) {
   // 40 views, 0.1 px corners. The map is metric from the tags' known size:
   // after a rigid alignment (no scale) the corners must match the truth to
   // well under a millimetre, and the scale within 0.1 %.
-  SyntheticSceneOptions options;
+  synth::SyntheticSceneOptions options;
   options.frames = 40;
   options.noise_px = 0.1;
-  const SyntheticScene scene = MakeSyntheticBoxScene(options);
+  const synth::SyntheticScene scene = synth::MakeSyntheticBoxScene(options);
   std::vector<FrameReport> reports;
   const ReconstructionResult result = RunScene(scene, BoxTargets(options), std::nullopt, &reports);
-  std::vector<Eigen::Vector3d> estimate, truth;
-  for (const auto& [id, corners] : result.Targets()) {
-    for (int k = 0; k < 4; ++k) {
-      estimate.push_back(corners[k]);
-      truth.push_back(scene.targets.at(id)[k]);
-    }
-  }
   // Every tag that two frames saw is in the map.
   std::map<TagId, int> views;
   for (const auto& d : scene.detections) {
@@ -88,10 +81,10 @@ TEST(Reconstructor, WithoutMapRecoversTargetsToScale) {
   int seen_twice = 0;
   for (const auto& [id, n] : views) seen_twice += n >= 2;
   EXPECT_GE(static_cast<int>(result.tags.size()), seen_twice - 1);
-  const Alignment rigid = AlignPoints(estimate, truth, false);
-  const Alignment similarity = AlignPoints(estimate, truth, true);
-  EXPECT_LT(rigid.rms_m, scene.largest_dimension_m / 5000) << "rigid RMS " << rigid.rms_m;
-  EXPECT_NEAR(similarity.scale, 1.0, 1e-3);
+  const eval::TruthComparison c = eval::CompareWithTruth({}, result.Targets(), {}, scene.targets, true);
+  EXPECT_EQ(c.targets_compared, static_cast<int>(result.tags.size()));
+  EXPECT_LT(c.corner_rms_m, scene.largest_dimension_m / 5000) << "rigid RMS " << c.corner_rms_m;
+  EXPECT_NEAR(c.scale, 1.0, 1e-3);
   EXPECT_LT(result.reprojection_rms_px, 0.2);
   int registered = 0;
   for (const auto& f : result.frames) registered += f.registered;
@@ -109,11 +102,11 @@ TEST(Reconstructor, KnownMapLeavesOutATagWithBadCorners) {
   // up to the solver's convergence tolerance (1e-4 deg, 10 um: 100x below
   // the ~0.01 deg the tag moves a pose when left in). With the tag in, a
   // Huber loss still let it tilt a rendered frame 0.16 deg.
-  SyntheticSceneOptions options;
+  synth::SyntheticSceneOptions options;
   options.frames = 30;
   options.noise_px = 0.05;
-  SyntheticScene scene = MakeSyntheticBoxScene(options);
-  SyntheticScene clean = scene;  // the corrupted tags removed
+  synth::SyntheticScene scene = synth::MakeSyntheticBoxScene(options);
+  synth::SyntheticScene clean = scene;  // the corrupted tags removed
   std::vector<size_t> corrupted;
   for (size_t i = 0; i < scene.detections.size(); i += 3) {
     auto& tags = scene.detections[i].tags;
@@ -145,10 +138,10 @@ TEST(Reconstructor, PoseChecksFollowTheMeasuredCornerNoise) {
   // The frames' noise measured from the tags' shapes lets every frame with
   // at least two tags register, and the poses are as good as 3 px allows:
   // 30x the 0.1 px test's bounds (the error is linear in the noise).
-  SyntheticSceneOptions options;
+  synth::SyntheticSceneOptions options;
   options.frames = 25;
   options.noise_px = 3.0;
-  const SyntheticScene scene = MakeSyntheticBoxScene(options);
+  const synth::SyntheticScene scene = synth::MakeSyntheticBoxScene(options);
   const ReconstructionResult result = RunScene(scene, BoxTargets(options), scene.targets);
   std::vector<double> rotation;
   for (size_t i = 0; i < scene.detections.size(); ++i) {
@@ -170,12 +163,12 @@ TEST(Reconstructor, PoseChecksFollowTheMeasuredCornerNoise) {
 // mapped again from the frames that disagreed, after
 // remap_after_outlier_frames of them, and then fits the frames again.
 TEST(Reconstructor, BumpedTargetIsMappedAgain) {
-  SyntheticSceneOptions options;
+  synth::SyntheticSceneOptions options;
   options.frames = 60;
   options.smooth_path = true;
   options.arc_deg = 60;
   options.noise_px = 0.1;
-  SyntheticScene scene = MakeSyntheticBoxScene(options);
+  synth::SyntheticScene scene = synth::MakeSyntheticBoxScene(options);
   const int bump_frame = 20;
   // The tag seen in the most frames both before and after the bump.
   std::map<TagId, std::pair<int, int>> seen;
@@ -224,9 +217,9 @@ TEST(Reconstructor, BumpedTargetIsMappedAgain) {
 }
 
 TEST(Reconstructor, FrameWithoutTagsIsUnregisteredWithReason) {
-  SyntheticSceneOptions options;
+  synth::SyntheticSceneOptions options;
   options.frames = 3;
-  const SyntheticScene scene = MakeSyntheticBoxScene(options);
+  const synth::SyntheticScene scene = synth::MakeSyntheticBoxScene(options);
   auto recon = Reconstructor::Create(scene.camera, BoxTargets(options), scene.targets, {});
   ASSERT_TRUE(recon.has_value());
   DetectionSet empty;
@@ -265,14 +258,14 @@ TEST(ReconstructorSlow, CovarianceSigmaMatchesTheSpreadOverNoiseDraws) {
   // measured distance must match the sigma the adjustment predicts. With 16
   // draws the sample standard deviation is within a factor ~1.4 of the true
   // one (chi-square, 95 %); the bounds allow 0.6x-1.7x.
-  SyntheticSceneOptions options;
+  synth::SyntheticSceneOptions options;
   options.frames = 20;
   options.noise_px = 0.2;
   std::vector<double> distances, sigmas;
   TagId a = -1, b = -1;
   for (std::uint32_t draw = 1; draw <= 16; ++draw) {
     options.noise_seed = draw;
-    const SyntheticScene scene = MakeSyntheticBoxScene(options);
+    const synth::SyntheticScene scene = synth::MakeSyntheticBoxScene(options);
     TargetConfig targets;
     targets.size_m = options.tag_size_m;
     auto recon = Reconstructor::Create(scene.camera, targets, std::nullopt, {});

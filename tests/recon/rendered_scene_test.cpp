@@ -13,8 +13,8 @@
 
 #include "tagsfm/capture/recording.h"
 #include "tagsfm/detect/tag_detector.h"
+#include "tagsfm/eval/truth_comparison.h"
 #include "tagsfm/recon/reconstructor.h"
-#include "tagsfm/recon/truth_comparison.h"
 #include "test_paths.h"
 
 namespace tagsfm {
@@ -70,7 +70,7 @@ TEST(RenderedBoxSceneSlow, IssueAccuracyWithAndWithoutMap) {
   // 0.018 deg, 0.10 mm (plain libapriltag corners + SQPnP + LM: 0.014 deg,
   // 0.23 deg, 0.48 mm on the same frames).
   const ReconstructionResult known = Reconstruct(r, r.true_targets);
-  const TruthComparison k = CompareWithTruth(known.Poses(), known.Targets(), r.true_poses, r.true_targets, false);
+  const eval::TruthComparison k = eval::CompareWithTruth(known.Poses(), known.Targets(), r.true_poses, r.true_targets, false);
   std::cout << "rendered box, true map: " << k.frames_compared << " frames, rotation median " << k.rotation_median_deg
             << " max " << k.rotation_max_deg << " deg, centre median " << 1e3 * k.centre_median_m << " mm\n";
   EXPECT_EQ(k.frames_compared, 40);
@@ -86,7 +86,7 @@ TEST(RenderedBoxSceneSlow, IssueAccuracyWithAndWithoutMap) {
   // on the floor, seen in 3-4 photos each. The bound is the scale goal itself and 1/7,500 for the
   // corners (a regression check, short of the goal).
   const ReconstructionResult learned = Reconstruct(r, std::nullopt);
-  const TruthComparison n = CompareWithTruth(learned.Poses(), learned.Targets(), r.true_poses, r.true_targets, true);
+  const eval::TruthComparison n = eval::CompareWithTruth(learned.Poses(), learned.Targets(), r.true_poses, r.true_targets, true);
   std::cout << "rendered box, no map: " << n.targets_compared << " targets, corner RMS " << 1e3 * n.corner_rms_m
             << " mm = 1/" << n.scene_size_m / n.corner_rms_m << " of the scene, scale " << n.scale << "\n";
   EXPECT_EQ(n.frames_compared, 40);

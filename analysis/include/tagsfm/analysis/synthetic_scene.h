@@ -25,10 +25,6 @@ struct SurfacePoint {
 // The camera of every experiment: 1280x960 px, focal 1000 px, no distortion.
 CameraModel ExperimentCamera();
 
-// cam_from_world of a camera at `eye` looking at `target`, image y pointing
-// away from world `up` (so the image is upright).
-Rigid3d LookAt(const Eigen::Vector3d& eye, const Eigen::Vector3d& target, const Eigen::Vector3d& up);
-
 // `count` points uniformly on the surface of an axis-aligned cube of edge
 // `edge` centred at the origin.
 std::vector<SurfacePoint> BoxSurfacePoints(int count, double edge, std::mt19937& rng);

@@ -15,9 +15,9 @@
 
 #include "tagsfm/capture/frame.h"
 #include "tagsfm/capture/recording.h"
+#include "tagsfm/export/run_stats.h"
 #include "tagsfm/pipeline/pipeline_options.h"
 #include "tagsfm/recon/reconstruction.h"
-#include "tagsfm/recon/result_writer.h"
 
 namespace tagsfm {
 

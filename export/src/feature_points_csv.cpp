@@ -1,4 +1,4 @@
-#include "tagsfm/recon/feature_points_csv.h"
+#include "tagsfm/export/feature_points_csv.h"
 
 #include <fstream>
 #include <sstream>

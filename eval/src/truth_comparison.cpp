@@ -1,10 +1,11 @@
-#include "tagsfm/recon/truth_comparison.h"
+#include "tagsfm/eval/truth_comparison.h"
 
 #include <algorithm>
+#include <cmath>
 
-#include "tagsfm/recon/alignment.h"
+#include "tagsfm/eval/similarity.h"
 
-namespace tagsfm {
+namespace tagsfm::eval {
 namespace {
 
 double Median(std::vector<double> v) {
@@ -35,17 +36,14 @@ TruthComparison CompareWithTruth(const PoseMap& poses, const TargetCornerMap& ta
   }
   out.scene_size_m = true_targets.empty() ? 0 : (hi - lo).norm();
   Rigid3d truth_from_estimate;
-  if (estimate.size() >= 3) {
-    const Alignment rigid = AlignPoints(estimate, truth, false);
-    out.scale = AlignPoints(estimate, truth, true).scale;
-    if (align_world) {
-      truth_from_estimate = rigid.truth_from_estimate;
-      out.corner_rms_m = rigid.rms_m;
-    } else {
-      double sum = 0;
-      for (size_t i = 0; i < estimate.size(); ++i) sum += (estimate[i] - truth[i]).squaredNorm();
-      out.corner_rms_m = std::sqrt(sum / static_cast<double>(estimate.size()));
-    }
+  // Tag corners are never collinear, so the fits fail only on fewer than 3.
+  const Result<Sim3d> rigid = EstimateSim3d(estimate, truth, false);
+  if (rigid) {
+    out.scale = EstimateSim3d(estimate, truth, true)->scale;
+    if (align_world) truth_from_estimate = Rigid3d(rigid->rotation, rigid->translation);
+    double sum = 0;
+    for (size_t i = 0; i < estimate.size(); ++i) sum += (truth_from_estimate * estimate[i] - truth[i]).squaredNorm();
+    out.corner_rms_m = std::sqrt(sum / static_cast<double>(estimate.size()));
   }
   std::vector<double> rotation, centre;
   out.frames_in_truth = static_cast<int>(true_poses.size());
@@ -67,4 +65,4 @@ TruthComparison CompareWithTruth(const PoseMap& poses, const TargetCornerMap& ta
   return out;
 }
 
-}  // namespace tagsfm
+}  // namespace tagsfm::eval

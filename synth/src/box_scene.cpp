@@ -1,26 +1,12 @@
-#include "tagsfm/recon/synthetic_scene.h"
+#include "tagsfm/synth/box_scene.h"
 
 #include <cmath>
 #include <random>
 
 #include "tagsfm/recon/tag_geometry.h"
+#include "tagsfm/synth/camera_path.h"
 
-namespace tagsfm {
-namespace {
-
-// A camera at `centre` looking at `target` with the world's +z up in the image.
-Rigid3d LookAt(const Eigen::Vector3d& centre, const Eigen::Vector3d& target) {
-  const Eigen::Vector3d z = (target - centre).normalized();
-  Eigen::Vector3d x = z.cross(Eigen::Vector3d::UnitZ());
-  if (x.norm() < 1e-6) x = Eigen::Vector3d::UnitX();
-  x.normalize();
-  const Eigen::Vector3d y = z.cross(x);
-  Eigen::Matrix3d world_from_cam;
-  world_from_cam << x, y, z;
-  return Rigid3d(Eigen::Quaterniond(world_from_cam), centre).Inverse();
-}
-
-}  // namespace
+namespace tagsfm::synth {
 
 bool TagVisible(const CameraModel& camera, const Rigid3d& cam_from_world, const TagCorners& corners) {
   const Eigen::Vector3d centre = TagCenter(corners);
@@ -85,7 +71,7 @@ SyntheticScene MakeSyntheticBoxScene(const SyntheticSceneOptions& o) {
     const Eigen::Vector3d look =
         middle + (o.smooth_path ? Eigen::Vector3d::Zero()
                                 : Eigen::Vector3d(0.1 * (unit(rng) - 0.5), 0.1 * (unit(rng) - 0.5), 0.0));
-    const Rigid3d cam_from_world = LookAt(centre, look);
+    const Rigid3d cam_from_world = LookAt(centre, look, 0.0);
     scene.cam_from_world.push_back(cam_from_world);
     DetectionSet set;
     set.frame = i;
@@ -104,4 +90,4 @@ SyntheticScene MakeSyntheticBoxScene(const SyntheticSceneOptions& o) {
   return scene;
 }
 
-}  // namespace tagsfm
+}  // namespace tagsfm::synth

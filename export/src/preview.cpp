@@ -10,7 +10,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "tagsfm/core/file_util.h"
-#include "tagsfm/recon/result_writer.h"
+#include "tagsfm/export/result_writer.h"
 
 namespace tagsfm {
 namespace {

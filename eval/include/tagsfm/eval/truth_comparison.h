@@ -3,9 +3,10 @@
 // after a rigid alignment (rotation and translation only, so the scale must
 // already be right), the scale a similarity alignment would need, and each
 // camera's rotation and centre error once brought into the truth's frame.
+// The fits are EstimateSim3d's (similarity.h).
 #include "tagsfm/core/csv_formats.h"
 
-namespace tagsfm {
+namespace tagsfm::eval {
 
 struct TruthComparison {
   int targets_compared = 0;
@@ -23,4 +24,4 @@ struct TruthComparison {
 TruthComparison CompareWithTruth(const PoseMap& poses, const TargetCornerMap& targets, const PoseMap& true_poses,
                                  const TargetCornerMap& true_targets, bool align_world);
 
-}  // namespace tagsfm
+}  // namespace tagsfm::eval

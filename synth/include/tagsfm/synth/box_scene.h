@@ -1,5 +1,6 @@
 #pragma once
-// Synthetic tag correspondences for tests and benchmarks: a true target map
+// Synthetic tag correspondences for tests and benchmarks (recon's test
+// scene): a true target map
 // and true camera poses, with each visible tag's corners projected through
 // the camera and perturbed by Gaussian pixel noise. No rendering: it checks
 // the geometry, not the detector.
@@ -9,7 +10,7 @@
 #include "tagsfm/core/camera_model.h"
 #include "tagsfm/detect/tag_detection.h"
 
-namespace tagsfm {
+namespace tagsfm::synth {
 
 struct SyntheticSceneOptions {
   int width = 1280, height = 720;
@@ -44,4 +45,4 @@ SyntheticScene MakeSyntheticBoxScene(const SyntheticSceneOptions& options);
 // plane), lies in front of it and all four corners fall inside the image.
 bool TagVisible(const CameraModel& camera, const Rigid3d& cam_from_world, const TagCorners& corners);
 
-}  // namespace tagsfm
+}  // namespace tagsfm::synth

@@ -1,0 +1,97 @@
+// report.json: the run's figures (frames, points, reprojection error,
+// latencies, the camera) for people and for `tagsfm evaluate`.
+#include <algorithm>
+#include <cmath>
+
+#include <nlohmann/json.hpp>
+
+#include "tagsfm/core/file_util.h"
+#include "tagsfm/export/result_writer.h"
+
+namespace tagsfm {
+namespace {
+
+double Percentile(std::vector<double> values, double q) {
+  if (values.empty()) return 0;
+  std::sort(values.begin(), values.end());
+  const size_t index = std::min(values.size() - 1, static_cast<size_t>(std::ceil(q * values.size())) - (q > 0 ? 1 : 0));
+  return values[index];
+}
+
+nlohmann::json LatencyJson(const std::vector<double>& ms) {
+  return {{"p50", Percentile(ms, 0.5)}, {"p95", Percentile(ms, 0.95)},
+          {"max", ms.empty() ? 0.0 : *std::max_element(ms.begin(), ms.end())}};
+}
+
+
+}  // namespace
+
+Status WriteReport(const std::filesystem::path& path, const ReconstructionResult& result, const RunStats& stats) {
+  nlohmann::json report;
+  int registered = 0;
+  std::map<TagId, bool> seen;
+  nlohmann::json unregistered = nlohmann::json::array();
+  for (const auto& f : result.frames) {
+    for (const auto& obs : f.tags) seen[obs.id] = true;
+    if (f.registered) {
+      ++registered;
+    } else {
+      unregistered.push_back({{"frame", f.frame}, {"reason", f.reason}});
+    }
+  }
+  nlohmann::json skipped = nlohmann::json::array();
+  for (const auto& [frame, why] : stats.skipped) skipped.push_back({{"frame", frame}, {"reason", why}});
+  report["frames"] = stats.frames;
+  report["registered_frames"] = registered;
+  report["frames_skipped"] = stats.frames_skipped;
+  report["targets_seen"] = seen.size();
+  report["targets_mapped"] = result.tags.size();
+  report["points"] = 4 * result.tags.size() + result.feature_points.size();
+  report["feature_points"] = result.feature_points.size();
+  report["observations"] = result.observations;
+  report["outlier_observations"] = result.outlier_observations;  // tag views left out of the adjustment
+  report["tags_remapped"] = result.tags_remapped;                // learned tags mapped again while running
+  // All observations: target corners and feature points together.
+  double sum_sq = result.reprojection_rms_px * result.reprojection_rms_px * result.observations;
+  double feature_sum_sq = 0;
+  size_t count = static_cast<size_t>(result.observations), feature_count = 0;
+  for (const FeaturePoint& p : result.feature_points) {
+    feature_sum_sq += p.reprojection_rms_px * p.reprojection_rms_px * static_cast<double>(p.observations.size());
+    feature_count += p.observations.size();
+  }
+  sum_sq += feature_sum_sq;
+  count += feature_count;
+  report["reprojection_rms_px"] = count ? std::sqrt(sum_sq / static_cast<double>(count)) : 0.0;
+  report["feature_reprojection_rms_px"] = feature_count ? std::sqrt(feature_sum_sq / static_cast<double>(feature_count)) : 0.0;
+  report["target_reprojection_rms_px"] = result.reprojection_rms_px;
+  report["runtime_s"] = stats.runtime_s;
+  report["frame_latency_ms"] = LatencyJson(stats.frame_latency_ms);
+  if (!stats.detection_ms.empty()) report["detection_ms"] = LatencyJson(stats.detection_ms);
+  if (!stats.tag_search.empty()) {
+    report["tag_search"] = {{"mode", stats.tag_search},
+                            {"full_frame_detections", stats.full_frame_detections},
+                            {"recoveries", stats.tag_search_recoveries}};
+  }
+  if (!stats.feature_ms.empty()) {
+    report["feature_keyframes"] = stats.feature_ms.size();
+    report["feature_ms"] = LatencyJson(stats.feature_ms);
+    report["triangulation_s"] = stats.triangulation_s;
+  }
+  report["peak_rss_mb"] = stats.peak_rss_mb;
+  report["mode"] = stats.mode;
+  report["pose_methods"] = result.pose_method_counts;
+  report["unregistered_frames"] = unregistered;
+  report["skipped_frames"] = skipped;
+  report["global_adjustment_converged"] = result.global_adjustment_converged;
+  report["intrinsics_refined"] = result.intrinsics_refined;
+  report["global_adjustment_s"] = result.global_adjustment_s;
+  report["covariance_s"] = result.covariance_s;
+  if (result.anchor_tag) report["anchor_tag"] = *result.anchor_tag;
+  report["covariance"] = result.covariance ? "targets_cov.csv" : result.covariance_note;
+  report["camera"] = {{"model", CameraModel::KindName(result.camera.kind)}, {"width", result.camera.width},
+                      {"height", result.camera.height}, {"fx", result.camera.fx}, {"fy", result.camera.fy},
+                      {"cx", result.camera.cx}, {"cy", result.camera.cy}, {"distortion", result.camera.distortion}};
+  return WriteFileAtomically(path, report.dump(2) + "\n");
+}
+
+}  // namespace tagsfm
