@@ -86,6 +86,9 @@ Status WriteReport(const std::filesystem::path& path, const ReconstructionResult
   report["intrinsics_refined"] = result.intrinsics_refined;
   report["global_adjustment_s"] = result.global_adjustment_s;
   report["covariance_s"] = result.covariance_s;
+  report["points_adjusted"] = result.points_adjusted;          // feature points adjusted with the targets
+  report["points_adjustment_s"] = result.points_adjustment_s;
+  report["window_solves_failed"] = result.window_solves_failed;  // undone, see SlidingWindowBundleAdjuster::Solve
   if (result.anchor_tag) report["anchor_tag"] = *result.anchor_tag;
   report["covariance"] = result.covariance ? "targets_cov.csv" : result.covariance_note;
   report["camera"] = {{"model", CameraModel::KindName(result.camera.kind)}, {"width", result.camera.width},
