@@ -8,8 +8,6 @@ namespace tagsfm {
 Status FeatureStageOptions::Check() const {
   if (Status s = tracker.Check(); !s) return s;
   if (Status s = triangulation.Check(); !s) return s;
-  if (!(keyframe_baseline >= 0)) return MakeError("features.keyframe_baseline must be >= 0");
-  if (!(keyframe_rotation_deg >= 0)) return MakeError("features.keyframe_rotation_deg must be >= 0");
   if (max_feature_image_side < 0) return MakeError("features.max_feature_image_side must be >= 0");
   return Status::Ok();
 }
@@ -31,30 +29,7 @@ Result<std::unique_ptr<FeatureStage>> FeatureStage::Create(const CameraModel& ca
   return std::unique_ptr<FeatureStage>(new FeatureStage(camera, targets, options, std::move(*tracker)));
 }
 
-bool FeatureStage::SelectKeyframe(const DetectionSet& detections, const FrameReport& report) {
-  if (!report.registered) return false;
-  if (!last_keyframe_ || IsFarFromLastKeyframe(detections, report)) {
-    last_keyframe_ = report.cam_from_world;
-    return true;
-  }
-  return false;
-}
-
-bool FeatureStage::IsFarFromLastKeyframe(const DetectionSet& detections, const FrameReport& report) const {
-  if (RotationAngleDeg(report.cam_from_world.rotation, last_keyframe_->rotation) >= options_.keyframe_rotation_deg) return true;
-  // Distance to the tags from their apparent size (median over the tags in
-  // view): f * size / side.
-  std::vector<double> depths;
-  for (const TagDetection& tag : detections.tags) {
-    double side = 0;
-    for (int k = 0; k < 4; ++k) side += (tag.corners[static_cast<size_t>(k)] - tag.corners[static_cast<size_t>((k + 1) % 4)]).norm() / 4;
-    if (side > 1) depths.push_back(camera_.fx * targets_.SizeOf(tag.id) / side);
-  }
-  if (depths.empty()) return false;
-  std::nth_element(depths.begin(), depths.begin() + static_cast<long>(depths.size() / 2), depths.end());
-  const double moved = (report.cam_from_world.Center() - last_keyframe_->Center()).norm();
-  return moved >= options_.keyframe_baseline * depths[depths.size() / 2];
-}
+bool FeatureStage::SelectKeyframe(const FrameReport& report) const { return report.registered && report.keyframe; }
 
 Status FeatureStage::Track(const cv::Mat& gray, const cv::Mat& colour, const DetectionSet& detections) {
   auto set = tracker_->Track(gray, colour, detections);

@@ -129,7 +129,7 @@ void Pipeline::State::Reconstruct(const DetectionSet& detections, std::int64_t t
   const auto t0 = std::chrono::steady_clock::now();
   const FrameReport report = recon->AddFrame(detections);
   stats.frame_latency_ms.push_back(MsSince(t0));
-  if (features && features->SelectKeyframe(detections, report)) {
+  if (features && features->SelectKeyframe(report)) {
     if (frame && !options.features.defer) {
       TrackFeatures(*frame, detections);
     } else {

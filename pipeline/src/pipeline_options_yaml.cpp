@@ -83,8 +83,6 @@ void ReadRecon(YamlFields f, ReconstructorOptions* o) {
 void ReadFeatures(YamlFields f, FeatureStageOptions* o) {
   f.Read("enabled", &o->enabled);
   f.Read("defer", &o->defer);
-  f.Read("keyframe_baseline", &o->keyframe_baseline);
-  f.Read("keyframe_rotation_deg", &o->keyframe_rotation_deg);
   f.Read("max_feature_image_side", &o->max_feature_image_side);
   f.Read("max_features", &o->tracker.max_features);
   f.Read("ratio", &o->tracker.ratio);

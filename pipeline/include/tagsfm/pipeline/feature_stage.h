@@ -1,8 +1,10 @@
 #pragma once
-// The natural-feature half of the hybrid pipeline: SIFT tracks on keyframes (frames whose registered pose has moved
-// enough since the last one: SIFT costs 10-50x a tag detection, and frames
-// closer together add no triangulation angle), triangulated at the end from
-// the final, target-derived poses, so the points are metric.
+// The natural-feature half of the hybrid pipeline: SIFT tracks on the
+// reconstruction's own keyframes (one keyframe rule: a frame that moved 5 %
+// of the tags' depth, turned 5 degrees or mapped a new tag; SIFT costs
+// 10-50x a tag detection, and frames closer together add no triangulation
+// angle), triangulated at the end from the final, target-derived poses, so
+// the points are metric, and adjusted with the targets (Reconstructor::Finish).
 #include <memory>
 #include <optional>
 #include <vector>
@@ -24,8 +26,6 @@ struct FeatureStageOptions {
   bool defer = false;
   FeatureTrackerOptions tracker;
   FeatureTriangulationOptions triangulation;
-  double keyframe_baseline = 0.03;   // camera moved by this fraction of the distance to the tags...
-  double keyframe_rotation_deg = 3;  // ...or turned by this much since the last feature keyframe
   // Larger images are scaled down to this longer side for SIFT (its cost
   // grows with the pixel count; on box_small half size was 2.5x cheaper for
   // 2.9 instead of 2.2 mm median point error). 0: never.
@@ -39,9 +39,8 @@ class FeatureStage {
   static Result<std::unique_ptr<FeatureStage>> Create(const CameraModel& camera, const TargetConfig& targets,
                                                          const FeatureStageOptions& options);
 
-  // Whether a frame, after reconstruction saw it, is a feature keyframe;
-  // if so it is the one the next frames' motion is measured from.
-  bool SelectKeyframe(const DetectionSet& detections, const FrameReport& report);
+  // Whether a frame is a feature keyframe: a registered keyframe of the reconstruction.
+  bool SelectKeyframe(const FrameReport& report) const;
   // Tracks the features of the next selected keyframe. `colour`: the frame
   // as captured (8-bit BGR gives the points' colours).
   Status Track(const cv::Mat& gray, const cv::Mat& colour, const DetectionSet& detections);
@@ -54,13 +53,11 @@ class FeatureStage {
  private:
   FeatureStage(CameraModel camera, TargetConfig targets, FeatureStageOptions options,
                   std::unique_ptr<FeatureTracker> tracker);
-  bool IsFarFromLastKeyframe(const DetectionSet& detections, const FrameReport& report) const;
 
   CameraModel camera_;
   TargetConfig targets_;
   FeatureStageOptions options_;
   std::unique_ptr<FeatureTracker> tracker_;
-  std::optional<Rigid3d> last_keyframe_;
   std::vector<FeatureSet> sets_;
 };
 
