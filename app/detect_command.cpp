@@ -1,6 +1,7 @@
-// tagsfm detect IMAGE... [--family F] [--refinement R] [--no-small-tags]:
-// prints each image's AprilTag detections as JSON, one array entry per image
-// that could be read.
+// tagsfm detect IMAGE... [--family F] [--refinement R] [--no-small-tags]
+// [--camera FILE]: prints each image's AprilTag detections as JSON, one array
+// entry per image that could be read. --camera gives the edge fit the lens
+// (TagDetectorOptions::camera), as replay does for photo sets.
 #include <iostream>
 #include <string>
 #include <vector>
@@ -21,6 +22,7 @@ struct DetectArgs {
   std::string refinement = CornerRefinementName(TagDetectorOptions{}.refinement);
   bool small_tags = false;     // --small-tags: the pass, or an error if the family cannot have it
   bool no_small_tags = false;  // --no-small-tags
+  std::string camera_file;     // --camera: recording.yaml or a run config with a camera: block
 };
 
 nlohmann::json TagsToJson(const DetectionSet& detections) {
@@ -43,6 +45,19 @@ int RunDetect(DetectArgs args) {
     return 2;
   }
   args.options.refinement = *refinement;
+  if (!args.camera_file.empty()) {
+    // The `camera:` block as recording.yaml and `tagsfm run --config` have it.
+    auto info = ReadCameraAndTargets(args.camera_file);
+    if (!info) {
+      spdlog::error("--camera: {}", info.error().message);
+      return 2;
+    }
+    if (!info->camera) {
+      spdlog::error("--camera: {}: no camera: block", args.camera_file);
+      return 2;
+    }
+    args.options.camera = *info->camera;
+  }
   // Photos, one at a time: the small-tag pass by default where the family
   // allows it (~10 ms per image; swatbotics 236/236 instead of 216/236).
   args.options.small_tag_pass =
@@ -61,6 +76,13 @@ int RunDetect(DetectArgs args) {
       spdlog::error("{}", frame.error().message);
       exit_code = 1;
       continue;  // the other images are still worth reporting
+    }
+    if (args.options.camera &&
+        (frame->gray.cols != args.options.camera->width || frame->gray.rows != args.options.camera->height)) {
+      spdlog::error("{}: {}x{} pixels, but the camera of {} is {}x{}", file, frame->gray.cols, frame->gray.rows,
+                    args.camera_file, args.options.camera->width, args.options.camera->height);
+      exit_code = 1;
+      continue;
     }
     auto detections = (*detector)->Detect(frame->gray, frame->index);
     if (!detections) {
@@ -95,6 +117,9 @@ void AddDetectCommand(CLI::App& app, int& exit_code) {
                 "family allows (tag36h11, tag36h10, tag25h9): it also reads the small or blurred tags (about 2 px "
                 "modules, or a module of blur) libapriltag finds no quad for, from OpenCV aruco's candidates "
                 "(about as much again as the detection at --decimate 2; docs/detection.md)");
+  cmd->add_option("--camera", args->camera_file,
+                  "recording.yaml or a run config whose camera: block (intrinsics, distortion) the corner fit "
+                  "uses: with lens distortion it fits the tag's edges where they are straight (docs/detection.md)");
   cmd->add_flag("--no-small-tags", args->no_small_tags, "libapriltag's tags only")->excludes("--small-tags");
   cmd->callback([args, &exit_code] { exit_code = RunDetect(*args); });
 }

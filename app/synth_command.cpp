@@ -79,6 +79,10 @@ void AddSynthCommand(CLI::App& app, int& exit_code) {
   cmd->add_option("--family", o.family, "AprilTag family")->capture_default_str();
   cmd->add_option("--tag-size", o.tag_size, "tag size (edge of the black square of tag36h11), metres")
       ->capture_default_str();
+  cmd->add_option("--tag-margin", o.tag_margin,
+                  "white modules round the tag's black square, the surface's texture beyond (1: the official image "
+                  "printed edge to edge; 2: one module of paper more)")
+      ->capture_default_str();
   cmd->add_option("--distance", args->distance, "MIN,MAX camera distance to the scene centre, metres (default 1.5,3)");
   cmd->add_option("--azimuth", o.max_azimuth_deg, "views span +-this many degrees about the scene's front (0: 70 for box, 35 for wall)");
   cmd->add_option("--samples", o.samples, "antialiasing samples per pixel and axis")->capture_default_str();

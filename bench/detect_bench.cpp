@@ -8,11 +8,13 @@
 // process, robust to other load on the machine) and its speed-up over both
 // libapriltag baselines in each.
 //
-//   build/bench/detect_bench [frames] [only]
+//   build/bench/detect_bench [frames] [only] [margin]
 //
 // frames: per resolution (default 40). only: run just the methods whose
 // name contains this string, plus the libapriltag decimate 2 x 2 threads
-// baseline (for profiling one method, e.g. "tagsfm_tracking").
+// baseline (for profiling one method, e.g. "tagsfm_tracking"; "" for all).
+// margin: white modules round each tag's black square (default 1, the
+// official image printed edge to edge; runs before the option had 2).
 #include <apriltag/apriltag.h>
 #include <apriltag/tag36h11.h>
 
@@ -45,13 +47,14 @@ struct Sequence {
   std::vector<cv::Mat> frames;
 };
 
-Sequence MakeSequence(int width, int height, int frames) {
+Sequence MakeSequence(int width, int height, int frames, double margin) {
   Sequence s;
   const double side = 0.05 * height;  // 36 px at 720 lines: 4.5 px per module
   s.truth = tagsfm::VideoTagPlacements(width, height, 20, side, frames, 0.004 * width, 5);
   tagsfm::TagRenderOptions render;
   render.blur_sigma_px = 0.7;
   render.noise_sigma = 2.0;
+  render.margin_modules = margin;
   for (int f = 0; f < frames; ++f) {
     render.seed = 1000 + f;
     s.frames.push_back(*tagsfm::RenderTags("tag36h11", width, height, s.truth[f], render));
@@ -135,16 +138,22 @@ nlohmann::json ToJson(const MethodResult& r) {
 int main(int argc, char** argv) {
   const int frames = argc > 1 ? std::max(2, std::atoi(argv[1])) : 40;
   const std::string only = argc > 2 ? argv[2] : "";
+  const double margin = argc > 3 ? std::atof(argv[3]) : 1.0;
+  if (!(margin >= 1.0 && margin <= 10.0)) {
+    std::cerr << "margin must be in 1..10 modules (got " << (argc > 3 ? argv[3] : "") << ")\n";
+    return 2;
+  }
   const auto wanted = [&](const std::string& name) {
     return name == "libapriltag_decimate2_threads2" || name.find(only) != std::string::npos;
   };
   nlohmann::json out;
   out["frames_per_resolution"] = frames;
+  out["margin_modules"] = margin;
   out["scene"] = "VideoTagPlacements: 20 tag36h11 tags, side 0.05*height, tilt <= 50 deg, panning 0.4% of width "
                  "per frame, blur 0.7 px, noise 2 grey levels";
   for (const auto& [width, height] : std::vector<std::pair<int, int>>{{1280, 720}, {1920, 1080}}) {
     std::fprintf(stderr, "rendering %dx%d...\n", width, height);
-    const Sequence s = MakeSequence(width, height, frames);
+    const Sequence s = MakeSequence(width, height, frames, margin);
     std::map<std::string, MethodResult> results;
     const auto Measure = [&](const std::string& name,
                              const std::function<std::vector<int>(const cv::Mat&, int)>& detect) {

@@ -9,7 +9,11 @@
 // tag's layout says where those white modules are, so each edge is fitted
 // with a model of the blurred outer step plus the blurred white modules
 // behind the border and the adjacent edges (see EdgeModel), by Gauss-Newton
-// on the pixels of a band around the edge. With a camera model the fit runs
+// on the pixels of a band around the edge. The band ends at the white ring
+// a tag is known to have (one module: the official images printed edge to
+// edge); what lies beyond has a level of its own in the model, so that a
+// textured surface there does not darken the white level (it biased the
+// corners -0.02 px inward at margin 1). With a camera model the fit runs
 // in undistorted pixel coordinates (LocalUndistortion).
 #include <algorithm>
 #include <array>
@@ -106,6 +110,9 @@ struct BandPixel {
   double along_px = 0.0;     // one module along the edge here, px
   double beyond_prev = -1e9;  // signed distances outside the adjacent edges' lines, px
   double beyond_next = -1e9;
+  // Signed distance outside the white ring's outer line (kRingModules
+  // outside the edge), px: from the pass's start, fixed during the fit.
+  double beyond_ring = -1e9;
   // Per row behind the border: how much of the outside's shade its modules
   // put here, blurred along the edge (EdgeModel::Shade), and the blur it was
   // computed for (0: not yet).
@@ -114,14 +121,24 @@ struct BandPixel {
 };
 
 // The edge's parameters: outward normal at angle theta, n . x = rho; grey
-// levels of the border and of the outside; blur sigma in px.
+// levels of the border and of the outside (the white ring); blur sigma in
+// px; the mean grey level beyond the ring.
 struct EdgeParams {
   double theta = 0.0;
   double rho = 0.0;
   double border = 0.0;
   double outside = 0.0;
   double sigma = 0.8;  // start: a typical lens blur plus the pixel's own width
+  double beyond = 0.0;
 };
+constexpr int kParams = 6;
+using ParamVector = Eigen::Matrix<double, kParams, 1>;
+
+// How much white a tag is known to have round its border: one module, what
+// libapriltag's official images have printed edge to edge. Beyond it lies
+// anything (the surface's texture, another tag, the sheet's edge, or more
+// white paper): the model gives it a level of its own (EdgeModel).
+constexpr double kRingModules = 1.0;
 
 // Model of the grey level at a band pixel: border + (outside - border) * g,
 // g = Phi(d / sigma) for the outer step (d: signed distance outside the
@@ -154,7 +171,7 @@ class EdgeModel {
   // sigma); `normal` is (cos theta, sin theta), computed once per pass;
   // `shade_sigma`: the blur for the row shades (see Shade).
   double Evaluate(BandPixel& p, const EdgeParams& e, const Eigen::Vector2d& normal, double shade_sigma,
-                  Eigen::Matrix<double, 5, 1>* jacobian) const {
+                  ParamVector* jacobian) const {
     const Eigen::Vector2d tangent(-normal.y(), normal.x());
     const double d = normal.dot(p.position) - e.rho;
     // Multiplications by 1/sigma, not ~10 divisions per pixel.
@@ -194,15 +211,23 @@ class EdgeModel {
       dg_dd += shade * (n1.pdf - n0.pdf) * inv_s;
       dg_ds += shade * (b0 * n0.pdf - b1 * n1.pdf) * inv_s;
     }
+    // Beyond the white ring: its own level, blurred in across the ring's
+    // outer line. That line is fixed during the fit, and the term leaves the
+    // line's and the blur's derivatives alone: what lies beyond (texture,
+    // a sheet's edge cut anywhere) must not place the edge, only keep it out
+    // of the white level.
+    const double c = p.beyond_ring * inv_s;
+    const double ring = c > -kReachSigmas ? Normal(c).cdf : 0.0;
     const double contrast = e.outside - e.border;
     if (jacobian != nullptr) {
       (*jacobian)(0) = contrast * dg_dd * tangent.dot(p.position);
       (*jacobian)(1) = -contrast * dg_dd;
       (*jacobian)(2) = 1.0 - g;
-      (*jacobian)(3) = g;
+      (*jacobian)(3) = g - ring;
       (*jacobian)(4) = contrast * dg_ds;
+      (*jacobian)(5) = ring;
     }
-    return e.border + contrast * g;
+    return e.border + contrast * g + (e.beyond - e.outside) * ring;
   }
 
   // The pixel's shade from row r for blur `sigma`. It changes little with
@@ -266,17 +291,19 @@ class EdgeModel {
 // `shade_tolerance` (relative) since they were last computed.
 bool FitEdgeModel(const EdgeModel& model, double half_length, int max_iterations, double stop_px,
                   double shade_tolerance, std::vector<BandPixel>* pixels, EdgeParams* params) {
+  constexpr int P = kParams;
+  using Vector = ParamVector;
   std::vector<BandPixel>& band = *pixels;
   if (band.size() < 12) return false;
   double shade_sigma = params->sigma;  // the row shades' blur
   EdgeParams previous = *params;
-  Eigen::Matrix<double, 5, 1> last_step = Eigen::Matrix<double, 5, 1>::Zero();
+  Vector last_step = Vector::Zero();
   double previous_cost = std::numeric_limits<double>::infinity();
-  std::vector<std::array<double, 6>> jr(band.size());
+  std::vector<std::array<double, P + 1>> jr(band.size());
   for (int iteration = 0; iteration < max_iterations; ++iteration) {
-    Eigen::Matrix<double, 5, 5> normal_matrix = Eigen::Matrix<double, 5, 5>::Zero();
-    Eigen::Matrix<double, 5, 1> gradient = Eigen::Matrix<double, 5, 1>::Zero();
-    Eigen::Matrix<double, 5, 1> j;
+    Eigen::Matrix<double, P, P> normal_matrix = Eigen::Matrix<double, P, P>::Zero();
+    Vector gradient = Vector::Zero();
+    ParamVector j;
     double cost = 0.0;
     if (std::abs(params->sigma - shade_sigma) > shade_tolerance * shade_sigma) {
       shade_sigma = params->sigma;
@@ -286,7 +313,7 @@ bool FitEdgeModel(const EdgeModel& model, double half_length, int max_iterations
     // The normal matrix's 15 upper-triangle entries in plain doubles,
     // mirrored once per iteration: Eigen's fixed-size outer product (itself
     // far cheaper than its rankUpdate) summed all 25 (~1-2 % saved).
-    std::array<double, 15> upper{};
+    std::array<double, P * (P + 1) / 2> upper{};
     // A local copy: the loop's stores (shades, jr) might alias *params, which
     // kept 1/sigma from being hoisted out of it (~2-3 % saved).
     const EdgeParams at = *params;
@@ -296,19 +323,25 @@ bool FitEdgeModel(const EdgeModel& model, double half_length, int max_iterations
     for (size_t i = 0; i < band.size(); ++i) {
       BandPixel& p = band[i];
       const double r = model.Evaluate(p, at, normal, shade_sigma, &j) - p.value;
-      jr[i] = {j(0), j(1), j(2), j(3), j(4), r};
+      for (int a = 0; a < P; ++a) jr[i][a] = j(a);
+      jr[i][P] = r;
     }
-    for (const std::array<double, 6>& e : jr) {
-      for (int a = 0, k = 0; a < 5; ++a) {
-        for (int b = a; b < 5; ++b) upper[k++] += e[a] * e[b];
+    for (const std::array<double, P + 1>& e : jr) {
+      for (int a = 0, k = 0; a < P; ++a) {
+        for (int b = a; b < P; ++b) upper[k++] += e[a] * e[b];
       }
-      for (int a = 0; a < 5; ++a) gradient(a) += e[a] * e[5];
-      cost += e[5] * e[5];
+      for (int a = 0; a < P; ++a) gradient(a) += e[a] * e[P];
+      cost += e[P] * e[P];
     }
-    for (int a = 0, k = 0; a < 5; ++a) {
-      for (int b = a; b < 5; ++b) normal_matrix(a, b) = normal_matrix(b, a) = upper[k++];
+    for (int a = 0, k = 0; a < P; ++a) {
+      for (int b = a; b < P; ++b) normal_matrix(a, b) = normal_matrix(b, a) = upper[k++];
     }
-    Eigen::Matrix<double, 5, 1> step;
+    // The level beyond the ring is seen only by the band's outermost pixels,
+    // and hardly at all where the ring is many pixels wide: damping its step
+    // (as if a thousandth of the band saw it fully) keeps the system regular
+    // there and leaves the minimum where it is.
+    normal_matrix(P - 1, P - 1) += 1e-3 * static_cast<double>(band.size());
+    Vector step;
     if (cost > previous_cost) {
       // Overshot: back to the previous point, half the step.
       *params = previous;
@@ -329,6 +362,7 @@ bool FitEdgeModel(const EdgeModel& model, double half_length, int max_iterations
     params->border += step(2);
     params->outside += step(3);
     params->sigma = std::clamp(params->sigma + step(4), 0.2, 10.0);
+    params->beyond += step(P - 1);
     if (std::abs(step(1)) + std::abs(step(0)) * half_length < stop_px) return true;
   }
   return true;
@@ -427,8 +461,8 @@ class LocalUndistortion {
   Eigen::Matrix<double, kTerms, 2> coefficients_;
 };
 
-// The pixels of edge i's band: from 0.8 module outside the edge to 1.5
-// modules inside (the border and half the row behind it), clear of the
+// The pixels of edge i's band: from the white ring's outer line (one
+// module outside the edge) to 1.5 modules inside (the border and half the row behind it), clear of the
 // corners. Geometry in undistorted pixels when `undistortion` is given.
 // `half`: only the pixels of one checkerboard colour (x + y even), for the
 // first pass, whose result only places the second pass's band.
@@ -441,7 +475,11 @@ std::vector<BandPixel> CollectBand(const cv::Mat& image, const Eigen::Matrix3d& 
   const Eigen::Vector2d along = (square[(i + 1) % 4] - start) / n;  // one module long
   const Eigen::Vector2d center(0.5 * n, 0.5 * n);
   const Eigen::Vector2d inward = (center - 0.5 * (start + square[(i + 1) % 4])) / (0.5 * n);
-  constexpr double kOutside = 0.8, kInside = 1.5;
+  // Outside: up to the white ring's outer line, never beyond it: what lies
+  // there is unknown (a band reaching 2 modules out measured +0.015 px at
+  // margin 2, where it met the paper's edge; 0.8 of a module, the old band,
+  // left the ring's level to fewer pixels: bias -0.002 to -0.004 px).
+  constexpr double kOutside = kRingModules, kInside = 1.5;
   auto to_image = [&](const Eigen::Vector2d& q) { return (image_from_square * q.homogeneous()).hnormalized().eval(); };
   auto line_through = [&](const Eigen::Vector2d& a, const Eigen::Vector2d& b) {
     const Eigen::Vector2d pa = to_image(a), pb = to_image(b);
@@ -451,6 +489,7 @@ std::vector<BandPixel> CollectBand(const cv::Mat& image, const Eigen::Matrix3d& 
   };
   const EdgeLine outer_line = line_through(start, start + n * along);
   const EdgeLine inner_line = line_through(start + inward, start + n * along + inward);
+  const EdgeLine ring_line = line_through(start - kRingModules * inward, start + n * along - kRingModules * inward);
 
   // The band is the image of a rectangle: a convex quadrilateral, scanned
   // row by row between its sides (in the distorted image its sides bow by
@@ -520,6 +559,7 @@ std::vector<BandPixel> CollectBand(const cv::Mat& image, const Eigen::Matrix3d& 
       p.position = pixel;
       p.value = row[x];
       p.u = u;
+      p.beyond_ring = ring_line.normal.dot(pixel) - ring_line.offset;
       // Across-edge depth of the border at this pixel: the difference of
       // its distances to the outer edge line and to the border's inner
       // line (both straight in the image), not the slanted length of one
@@ -613,6 +653,7 @@ void StartLevels(const std::vector<BandPixel>& band, EdgeParams* params) {
   const bool bright_outside = outside_count == 0 || outside_sum / outside_count > 0.5 * (low + high);
   params->border = bright_outside ? low : high;
   params->outside = bright_outside ? high : low;
+  params->beyond = params->outside;
 }
 
 }  // namespace

@@ -87,6 +87,13 @@ Status DrawTags(apriltag_family_t* fam, const std::string& family_name, const st
     // Corner-square coordinates (modules, x right, y down, origin at the
     // square's top-left) of libapriltag's corners 0..3: bottom-left,
     // bottom-right, top-right, top-left.
+    // This tag's lighting (TagRenderOptions::tag_shade_variation), from the
+    // seed and the id, so it does not depend on the other tags.
+    std::mt19937_64 shade_rng(options.seed * 0x9E3779B97F4A7C15ULL + static_cast<std::uint64_t>(tag.id));
+    const double shade = 1.0 - options.tag_shade_variation * std::uniform_real_distribution<double>(0.0, 1.0)(shade_rng);
+    const double white = shade * options.white, black = shade * options.black;
+    // The white margin beyond the bitmap's own ring.
+    const double paper = std::max(0.0, options.margin_modules - border_start);
     const QuadCorners square = CornerSquareCorners(fam->width_at_border);
     const std::optional<Eigen::Matrix3d> homography = HomographyFrom4(square, tag.corners);
     if (!homography) return MakeError("RenderTags: degenerate corners for tag " + std::to_string(tag.id));
@@ -95,7 +102,7 @@ Status DrawTags(apriltag_family_t* fam, const std::string& family_name, const st
 
     // Pixels the bitmap (with its white margin) can touch.
     double x_min = 1e9, x_max = -1e9, y_min = 1e9, y_max = -1e9;
-    const double reach = border_start + options.paper_margin_modules;
+    const double reach = border_start + paper;
     for (double u : {-reach, across + reach}) {
       for (double v : {-reach, across + reach}) {
         const Eigen::Vector2d p = map.ToCanvas((h * Eigen::Vector3d(u, v, 1.0)).hnormalized());
@@ -117,12 +124,11 @@ Status DrawTags(apriltag_family_t* fam, const std::string& family_name, const st
       const double bx = q.x() / q.z() + border_start;
       const double by = q.y() / q.z() + border_start;
       if (!(bx >= 0 && by >= 0 && bx < total && by < total)) {
-        const double m = options.paper_margin_modules;
-        const bool on_paper = bx >= -m && by >= -m && bx < total + m && by < total + m;
-        return on_paper ? options.white : -1.0;
+        const bool on_paper = bx >= -paper && by >= -paper && bx < total + paper && by < total + paper;
+        return on_paper ? white : -1.0;
       }
       const uint8_t bit = bitmap->buf[static_cast<int>(by) * bitmap->stride + static_cast<int>(bx)];
-      return bit != 0 ? options.white : options.black;
+      return bit != 0 ? white : black;
     };
     const int s = supersample;
     for (int y = y0; y <= y1; ++y) {
@@ -153,12 +159,53 @@ Status DrawTags(apriltag_family_t* fam, const std::string& family_name, const st
   return Status::Ok();
 }
 
+// The background: `background` plus value noise (cells of 40, 12 and 4 px)
+// and filled blobs and strokes of random grey, drawn on a canvas `scale`
+// times finer than the image (blobs 1-8 px, strokes 1-3 px wide: the tags'
+// margins meet edges of every contrast and scale). Clipped to [black, white
+// - 20] so that the margin stays the brightest thing round a tag.
+cv::Mat MakeBackground(int width, int height, int scale, const TagRenderOptions& options) {
+  cv::Mat canvas(height * scale, width * scale, CV_32F, cv::Scalar(options.background));
+  if (options.texture_contrast <= 0.0) return canvas;
+  cv::RNG rng(options.seed * 0x2545F4914F6CDD1DULL + 99);
+  const double c = options.texture_contrast;
+  for (double cell_px : {40.0, 12.0, 4.0}) {
+    cv::Mat grid(static_cast<int>(height / cell_px) + 2, static_cast<int>(width / cell_px) + 2, CV_32F);
+    rng.fill(grid, cv::RNG::UNIFORM, -0.4 * c, 0.4 * c);
+    cv::Mat smooth;
+    cv::resize(grid, smooth, canvas.size(), 0, 0, cv::INTER_CUBIC);
+    canvas += smooth;
+  }
+  auto grey = [&] { return cv::Scalar(options.background + rng.uniform(-c, c)); };
+  const int blobs = width * height / 150, strokes = width * height / 300;
+  for (int i = 0; i < blobs; ++i) {
+    const cv::Point centre(rng.uniform(0, canvas.cols), rng.uniform(0, canvas.rows));
+    const cv::Size axes(static_cast<int>(scale * rng.uniform(0.5, 4.0)), static_cast<int>(scale * rng.uniform(0.5, 4.0)));
+    cv::ellipse(canvas, centre, axes, rng.uniform(0.0, 180.0), 0, 360, grey(), cv::FILLED, cv::LINE_AA);
+  }
+  for (int i = 0; i < strokes; ++i) {
+    const cv::Point a(rng.uniform(0, canvas.cols), rng.uniform(0, canvas.rows));
+    const double angle = rng.uniform(0.0, 2 * CV_PI), length = scale * rng.uniform(2.0, 10.0);
+    const cv::Point b(a.x + static_cast<int>(length * std::cos(angle)), a.y + static_cast<int>(length * std::sin(angle)));
+    cv::line(canvas, a, b, grey(), std::max(1, static_cast<int>(scale * rng.uniform(1.0, 3.0))), cv::LINE_AA);
+  }
+  cv::max(canvas, options.black, canvas);
+  cv::min(canvas, options.white - 20.0, canvas);
+  return canvas;
+}
+
 }  // namespace
 
 Result<cv::Mat> RenderTags(const std::string& family_name, int width, int height, const std::vector<PlacedTag>& tags,
                            const TagRenderOptions& options) {
   if (width <= 0 || height <= 0) return MakeError("RenderTags: image size must be positive");
   if (options.supersample < 1) return MakeError("RenderTags: supersample must be >= 1");
+  if (!(options.margin_modules >= 1.0) || options.margin_modules > 10.0) {
+    return MakeError("RenderTags: margin_modules must be in 1..10");
+  }
+  if (!(options.tag_shade_variation >= 0.0 && options.tag_shade_variation < 1.0)) {
+    return MakeError("RenderTags: tag_shade_variation must be in [0, 1)");
+  }
   if (options.blur_oversample < 1 || options.blur_oversample > 8) {
     return MakeError("RenderTags: blur_oversample must be in 1..8");
   }
@@ -172,7 +219,7 @@ Result<cv::Mat> RenderTags(const std::string& family_name, int width, int height
   cv::Mat canvas;
   const int f = options.blur_sigma_px > 0.0 ? options.blur_oversample : 1;
   if (f == 1) {
-    canvas = cv::Mat(height, width, CV_32F, cv::Scalar(options.background));
+    canvas = MakeBackground(width, height, 1, options);
     Status drawn = DrawTags(family->get(), family_name, tags, options, CanvasMap(options.camera, 1.0),
                             options.supersample, kFineSamples, kFibonacciStep, &canvas);
     if (!drawn) return drawn.error();
@@ -191,7 +238,7 @@ Result<cv::Mat> RenderTags(const std::string& family_name, int width, int height
     for (PlacedTag& tag : fine_tags) {
       for (Eigen::Vector2d& c : tag.corners) c = f * c + shift;
     }
-    cv::Mat fine(height * f, width * f, CV_32F, cv::Scalar(options.background));
+    cv::Mat fine = MakeBackground(width, height, f, options);
     // The same absolute precision as at f = 1: 144 lattice points per fine
     // pixel are ~2300 per output pixel.
     Status drawn = DrawTags(family->get(), family_name, fine_tags, options, CanvasMap(options.camera, f),

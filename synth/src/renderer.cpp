@@ -31,7 +31,7 @@ struct TagInFace {
   Eigen::Vector2d centre_ab;
   // (a, b) -> module coordinates relative to the tag's centre, in modules.
   Eigen::Matrix2d modules_from_ab;
-  double half_sheet_modules;  // tag image plus one module of white paper
+  double half_sheet_modules;  // the detector's square plus the white margin (at least the tag image)
 };
 
 struct FaceShading {
@@ -90,7 +90,7 @@ std::vector<FaceShading> ShadingOf(const Scene& scene) {
     Eigen::Matrix2d modules_from_m;
     modules_from_m << c, s, -s, c;
     t.modules_from_ab = modules_from_m * Eigen::Vector2d(lu, lv).asDiagonal() / module_m;
-    t.half_sheet_modules = 0.5 * tag.pattern.total_width + 1.0;
+    t.half_sheet_modules = std::max(0.5 * tag.pattern.total_width, 0.5 * tag.pattern.width_at_border + tag.margin_modules);
     shading[static_cast<size_t>(tag.face)].tags.push_back(t);
   }
   return shading;

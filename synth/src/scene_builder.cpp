@@ -1,6 +1,7 @@
 // The box and wall scenes: faces, textures and a random tag layout.
 #include "tagsfm/synth/scene_builder.h"
 
+#include <algorithm>
 #include <cmath>
 
 namespace tagsfm::synth {
@@ -43,9 +44,12 @@ Status PlaceTags(Scene* scene, const TagRegion& region, const SynthOptions& opti
     if (id >= family_size) return Status::Ok();  // a small family: fewer targets
     Result<TagPattern> pattern = LoadTagPattern(options.family, id);
     if (!pattern) return pattern.error();
-    // The printed sheet: the tag image plus one module of white paper around it.
+    // The printed sheet: the detector's square plus the margin round it. The
+    // spacing is the larger of that and the old sheet (the image plus a
+    // module of paper), so that margins 1 and 2 give the same layout.
     const double module_m = options.tag_size / pattern->width_at_border;
-    const double sheet_m = (pattern->total_width + 2) * module_m;
+    const double sheet_m =
+        std::max(pattern->total_width + 2.0, pattern->width_at_border + 2.0 * options.tag_margin) * module_m;
     const double spacing_m = 1.5 * sheet_m;  // room for any rotation of both sheets
     bool found = false;
     for (int attempt = 0; attempt < 2000 && !found; ++attempt) {
@@ -62,6 +66,7 @@ Status PlaceTags(Scene* scene, const TagRegion& region, const SynthOptions& opti
         tag.centre_in_face = centre;
         tag.angle_rad = rng.uniform(-region.max_angle_rad, region.max_angle_rad);
         tag.size_m = options.tag_size;
+        tag.margin_modules = options.tag_margin;
         tag.pattern = std::move(*pattern);
         scene->tags.push_back(std::move(tag));
       }

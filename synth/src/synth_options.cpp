@@ -42,6 +42,7 @@ Status SynthOptions::Check() const {
     return FieldError("family", "is not a libapriltag family", family);
   }
   if (!(tag_size >= 0.01) || tag_size > 0.2) return FieldError("tag-size", "must be in 0.01..0.2 m", tag_size);
+  if (!(tag_margin >= 1.0) || tag_margin > 10) return FieldError("tag-margin", "must be in 1..10 modules", tag_margin);
   if (!(min_distance >= 0.5)) return FieldError("distance", "minimum must be >= 0.5 m", min_distance);
   if (!(max_distance >= min_distance) || max_distance > 50) {
     return FieldError("distance", "maximum must be in [minimum, 50] m", max_distance);

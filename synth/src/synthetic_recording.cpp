@@ -76,6 +76,7 @@ std::string SceneYamlText(const Scene& scene, const SynthOptions& options) {
   out << YAML::Key << "noise" << YAML::Value << options.noise;
   out << YAML::Key << "blur" << YAML::Value << options.blur;
   out << YAML::Key << "brightness" << YAML::Value << options.brightness;
+  out << YAML::Key << "tag_margin_modules" << YAML::Value << options.tag_margin;
   out << YAML::EndMap << YAML::EndMap;
   return std::string(out.c_str()) + "\n";
 }

@@ -73,6 +73,47 @@ TEST(Scene, TooLargeTagsAreAnErrorNamingTheOption) {
   EXPECT_NE(scene.error().message.find("--tag-size"), std::string::npos) << scene.error().message;
 }
 
+// --tag-margin m: m modules of white round the black square, the face's
+// texture right beyond (whose albedo is kept below the tags' white). Frontal
+// view, no blur or noise: the module centres along each edge's normal.
+TEST(Scene, TagMarginIsWhiteForItsModulesAndTextureBeyond) {
+  for (double margin : {1.0, 2.0, 3.0}) {
+    SynthOptions options;
+    options.scene = "wall";
+    options.tag_margin = margin;
+    Result<Scene> scene = BuildScene(options);
+    ASSERT_TRUE(scene) << scene.error().message;
+    const PlacedTag& tag = scene->tags[0];
+    const TagCorners c = TagCornersInWorld(*scene, tag);
+    const Eigen::Vector3d centre = 0.25 * (c[0] + c[1] + c[2] + c[3]);
+    const Eigen::Vector3d normal = scene->faces[static_cast<size_t>(tag.face)].rect.Normal();
+    CameraModel camera;
+    camera.width = camera.height = 300;
+    camera.fx = camera.fy = 1000;  // 15 px per module at 0.5 m
+    camera.cx = camera.cy = 149.5;
+    const Rigid3d cam_from_world = LookAt(centre + 0.5 * normal, centre, 0.0);
+    Result<SceneRenderer> renderer = SceneRenderer::Create(camera, &*scene, 2, 1);
+    ASSERT_TRUE(renderer) << renderer.error().message;
+    const cv::Mat1f light = renderer->Render(cam_from_world);
+    const double shade = scene->faces[static_cast<size_t>(tag.face)].shade;
+    const double module_m = tag.size_m / tag.pattern.width_at_border;
+    for (int e = 0; e < 4; ++e) {
+      const Eigen::Vector3d mid = 0.5 * (c[e] + c[(e + 1) % 4]);
+      const Eigen::Vector3d outward = (mid - centre).normalized();
+      for (int k = 0; k <= static_cast<int>(margin); ++k) {
+        const Eigen::Vector2d px = camera.Project(cam_from_world * (mid + (k + 0.5) * module_m * outward));
+        ASSERT_TRUE(px.x() >= 0 && px.y() >= 0 && px.x() < camera.width - 1 && px.y() < camera.height - 1);
+        const float value = light(static_cast<int>(std::lround(px.y())), static_cast<int>(std::lround(px.x())));
+        if (k < margin) {
+          EXPECT_NEAR(value, 0.92 * shade, 1e-4) << "margin " << margin << " edge " << e << " module " << k;
+        } else {
+          EXPECT_LT(value, 0.86 * shade) << "margin " << margin << " edge " << e << ": white beyond the margin";
+        }
+      }
+    }
+  }
+}
+
 TEST(Rectangle, DistanceToClampsToTheEdges) {
   const Rectangle3d r{{0, 0, 0}, {2, 0, 0}, {0, 1, 0}};
   EXPECT_DOUBLE_EQ(r.DistanceTo({1, 0.5, 0.3}), 0.3);

@@ -63,6 +63,7 @@ TEST(SceneRenderer, LensBlurActsBeforeThePixelsIntegrate) {
   tag.face = 0;
   tag.centre_in_face = {0.15, 0.15};
   tag.size_m = 0.1;
+  tag.margin_modules = 2.0;  // the profile's white reference lies 6-10 px (0.7-1.1 modules) outside
   tag.pattern = *LoadTagPattern("tag36h11", 0);
   scene.tags.push_back(tag);
   CameraModel camera;

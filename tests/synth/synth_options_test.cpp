@@ -55,6 +55,9 @@ TEST(SynthOptions, EachWrongFieldIsNamed) {
   o.tag_size = 0;
   ExpectRejected(o, "--tag-size");
   o = SynthOptions();
+  o.tag_margin = 0.5;  // less than the tag image's own white ring
+  ExpectRejected(o, "--tag-margin");
+  o = SynthOptions();
   o.min_distance = 3;
   o.max_distance = 2;
   ExpectRejected(o, "--distance");

@@ -26,8 +26,12 @@ struct CameraModel;
 // with a model of the blurred step plus the blurred modules behind the
 // border that have the outside's shade (from the layout: on small, blurred
 // tags that inner edge, one module in, otherwise pulls the edge outward by up
-// to 0.1 px) and the adjacent edges near the corners. Unknown layout (empty
-// like_border): a plain blurred step (and the adjacent edges).
+// to 0.1 px) and the adjacent edges near the corners. Outside, the band
+// stays within one module of the edge, the white a tag has at the least
+// (libapriltag's images printed edge to edge); beyond that ring the model
+// has a level of its own (texture, another tag, the sheet's edge), which
+// does not place the edge. Unknown layout (empty like_border): a plain
+// blurred step (and the adjacent edges).
 //
 // `camera` (optional, may be null): the image's camera model. With lens
 // distortion the edges are straight only in undistorted coordinates, and a

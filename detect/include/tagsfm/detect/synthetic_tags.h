@@ -1,8 +1,9 @@
 #pragma once
 // Images of tags whose corners are known exactly, for accuracy tests and
 // benchmarks: each tag's bitmap (libapriltag's own, one white module around
-// the black border) is mapped by a homography, blurred, area-averaged over
-// each pixel and noised. Pixel centres at integer coordinates
+// the black border, plus any further white margin) is mapped by a
+// homography over a flat or textured background, blurred, area-averaged
+// over each pixel and noised. Pixel centres at integer coordinates
 // (pixel (x, y) covers [x-0.5, x+0.5] x [y-0.5, y+0.5]), as everywhere in tagsfm.
 #include <cstdint>
 #include <string>
@@ -34,9 +35,18 @@ struct TagRenderOptions {
   double noise_sigma = 0.0;    // Gaussian noise, grey levels
   double black = 30.0;         // grey levels of the tag's black and white
   double white = 220.0;
-  double background = 140.0;   // outside the tags' paper
-  double paper_margin_modules = 1.0;  // white paper beyond libapriltag's bitmap
-                                      // (which has one white module already)
+  double background = 140.0;   // outside the tags' paper (the texture's mean)
+  // White modules round the black square, the background beyond: 1 =
+  // libapriltag's bitmap printed edge to edge (its own outer ring), 2 = one
+  // module of paper more (what this raster drew before it had the option).
+  double margin_modules = 1.0;
+  // Background texture (value noise, blobs and strokes of random grey, sharp
+  // to a pixel) of about this many grey levels either side of `background`,
+  // clipped to [black, white - 20]; 0: a flat background.
+  double texture_contrast = 0.0;
+  // Each tag's black and white scaled by its own shade, uniform in
+  // [1 - tag_shade_variation, 1] (lighting that differs per surface).
+  double tag_shade_variation = 0.0;
   std::uint64_t seed = 1;
   // Optional lens (not owned): with distortion (pinhole k1, k2, p1, p2, k3),
   // the tags' corners are undistorted pixel coordinates (this camera's K

@@ -53,6 +53,9 @@ struct PlacedTag {
   Eigen::Vector2d centre_in_face = Eigen::Vector2d::Zero();
   double angle_rad = 0.0;
   double size_m = 0.06;
+  // White modules round the detector's square (SynthOptions::tag_margin);
+  // never less than the pattern's own outer ring.
+  double margin_modules = 1.0;
   TagPattern pattern;
 };
 

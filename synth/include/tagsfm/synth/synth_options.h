@@ -24,6 +24,11 @@ struct SynthOptions {
   std::uint64_t seed = 1;   // textures, tag layout, path jitter, noise
   std::string family = "tag36h11";
   double tag_size = 0.06;   // edge of the tag's detector quad (black square for tag36h11), metres
+  // White modules round the detector's square (the black square of tag36h11),
+  // the surface's texture beyond: 1 = libapriltag's official image printed
+  // edge to edge (its own outer ring), 2 = one module of paper more (what
+  // synth drew before this option; the bundled recordings/).
+  double tag_margin = 1.0;
   double min_distance = 1.5;  // camera to the scene centre, metres
   double max_distance = 3.0;
   double max_azimuth_deg = 0.0;  // views from +-this about the scene's front; 0: 70 (box), 35 (wall)
