@@ -1,4 +1,4 @@
-#include "tagsfm/detect/feature_tracker.h"
+#include "tagsfm/feature/feature_tracker.h"
 
 #include <opencv2/calib3d.hpp>
 #include <opencv2/features2d.hpp>
