@@ -9,7 +9,7 @@
 #include <Eigen/Core>
 
 #include "tagsfm/core/result.h"
-#include "tagsfm/recon/feature_triangulation.h"
+#include "tagsfm/feature/feature_triangulation.h"
 
 namespace tagsfm {
 

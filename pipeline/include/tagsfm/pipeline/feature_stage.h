@@ -12,8 +12,8 @@
 #include <opencv2/core.hpp>
 
 #include "tagsfm/capture/recording.h"
-#include "tagsfm/detect/feature_tracker.h"
-#include "tagsfm/recon/feature_triangulation.h"
+#include "tagsfm/feature/feature_tracker.h"
+#include "tagsfm/feature/feature_triangulation.h"
 #include "tagsfm/recon/reconstructor.h"
 
 namespace tagsfm {

@@ -12,7 +12,7 @@
 
 #include "tagsfm/core/camera_model.h"
 #include "tagsfm/core/csv_formats.h"
-#include "tagsfm/recon/feature_triangulation.h"
+#include "tagsfm/feature/feature_triangulation.h"
 #include "tagsfm/recon/pose_estimator.h"
 #include "tagsfm/recon/pose_params.h"
 

@@ -6,7 +6,7 @@
 #include <gtest/gtest.h>
 #include <opencv2/imgproc.hpp>
 
-#include "tagsfm/detect/feature_tracker.h"
+#include "tagsfm/feature/feature_tracker.h"
 
 namespace tagsfm {
 namespace {

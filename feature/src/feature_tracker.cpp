@@ -1,8 +1,10 @@
-#include "tagsfm/detect/feature_tracker.h"
+#include "tagsfm/feature/feature_tracker.h"
 
 #include <opencv2/calib3d.hpp>
 #include <opencv2/features2d.hpp>
 #include <opencv2/imgproc.hpp>
+
+#include "tagsfm/feature/tag_mask.h"
 
 namespace tagsfm {
 
@@ -37,26 +39,6 @@ Result<std::unique_ptr<FeatureTracker>> FeatureTracker::Create(const FeatureTrac
   state->sift = cv::SIFT::create(options.max_features);
   return std::unique_ptr<FeatureTracker>(new FeatureTracker(std::move(state)));
 }
-
-namespace {
-
-// Everything but the tags (grown by `margin` of their size): a tag's corners
-// are targets already, and its code would match other tags' codes.
-cv::Mat MaskOutsideTags(const cv::Size& size, const DetectionSet& tags, double margin) {
-  cv::Mat mask(size, CV_8U, cv::Scalar(255));
-  for (const TagDetection& tag : tags.tags) {
-    const Eigen::Vector2d centre = tag.Center();
-    std::vector<cv::Point> polygon;
-    for (const Eigen::Vector2d& corner : tag.corners) {
-      const Eigen::Vector2d grown = centre + (1.0 + 2.0 * margin) * (corner - centre);
-      polygon.emplace_back(cvRound(grown.x()), cvRound(grown.y()));
-    }
-    cv::fillConvexPoly(mask, polygon, cv::Scalar(0));
-  }
-  return mask;
-}
-
-}  // namespace
 
 Result<FeatureSet> FeatureTracker::Track(const cv::Mat& gray, const cv::Mat& colour, const DetectionSet& tags) {
   if (gray.empty() || gray.type() != CV_8UC1) return MakeError("frame " + std::to_string(tags.frame) + ": features need an 8-bit grey image");

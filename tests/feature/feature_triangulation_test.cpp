@@ -4,7 +4,7 @@
 
 #include <gtest/gtest.h>
 
-#include "tagsfm/recon/feature_triangulation.h"
+#include "tagsfm/feature/feature_triangulation.h"
 #include "test_camera.h"
 
 namespace tagsfm {

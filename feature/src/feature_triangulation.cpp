@@ -1,4 +1,4 @@
-#include "tagsfm/recon/feature_triangulation.h"
+#include "tagsfm/feature/feature_triangulation.h"
 
 #include <algorithm>
 #include <cmath>

@@ -1,0 +1,59 @@
+#pragma once
+// SIFT features of one keyframe, outside the tags, as plain values for the
+// matcher (guided_matcher.h) and the feature map (feature_map.h).
+#include <array>
+#include <cstdint>
+#include <vector>
+
+#include <Eigen/Core>
+#include <opencv2/core.hpp>
+
+#include "tagsfm/core/csv_formats.h"
+#include "tagsfm/core/result.h"
+#include "tagsfm/detect/tag_detection.h"
+
+namespace tagsfm {
+
+struct FeatureExtractorOptions {
+  // Strongest features kept per keyframe; 0: every one SIFT finds (the
+  // choice is measured in docs/features.md).
+  int max_features = 0;
+  // OpenCV's SIFT contrast threshold (its default 0.04 is COLMAP's
+  // peak_threshold): half of it doubles the features, and the points, at the
+  // same accuracy, and real indoor photos need it (docs/features.md).
+  double contrast_threshold = 0.02;
+  // RootSIFT (Arandjelovic & Zisserman 2012: L1-normalise, square root)
+  // instead of plain SIFT; either way the descriptors have unit L2 norm.
+  bool root_sift = true;
+  double tag_margin = 0.3;  // tags are masked, grown by this fraction of their size
+  // SIFT runs on the image scaled by this (<= 1); its cost goes with the
+  // square, and features are localised about 1/scale times worse.
+  double image_scale = 1.0;
+
+  Status Check() const;  // names the wrong field
+};
+
+// One keyframe's features; all vectors have one entry per feature, row i of
+// `descriptors` belongs to pixels[i].
+struct KeyframeFeatures {
+  FrameId frame = 0;
+  // OpenCV's convention (pixel centres at integers), distorted image
+  // coordinates, full-size pixels.
+  std::vector<Eigen::Vector2d> pixels;
+  cv::Mat descriptors;  // CV_32F, 128 columns, unit L2 norm
+  std::vector<std::array<std::uint8_t, 3>> rgb;
+  std::vector<float> scale;        // SIFT keypoint diameter, full-size pixels
+  std::vector<float> orientation;  // SIFT orientation, degrees
+
+  int size() const { return static_cast<int>(pixels.size()); }
+  // The vectors agree in length and the descriptors are 128-column floats.
+  Status Check() const;
+};
+
+// SIFT features of `gray` (8-bit) outside the tags of `tags`; `colour`
+// (8-bit BGR of the same size, or empty) gives their colours. The frame id
+// is tags.frame.
+Result<KeyframeFeatures> ExtractFeatures(const cv::Mat& gray, const cv::Mat& colour, const DetectionSet& tags,
+                                         const FeatureExtractorOptions& options);
+
+}  // namespace tagsfm

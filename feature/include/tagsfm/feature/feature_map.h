@@ -1,0 +1,86 @@
+#pragma once
+// Feature tracks over every keyframe that sees the same part of the scene,
+// not only the previous one: each new keyframe is matched (guided by the
+// known poses, guided_matcher.h) against the earlier keyframes whose view
+// overlaps its own, nearest in viewpoint first, and the matches are merged
+// into tracks by a union-find. A feature seen again after a gap, or from
+// the other side of a photo set, continues its track.
+#include <vector>
+
+#include "tagsfm/core/camera_model.h"
+#include "tagsfm/core/csv_formats.h"
+#include "tagsfm/core/result.h"
+#include "tagsfm/core/rigid3d.h"
+#include "tagsfm/feature/feature_extractor.h"
+#include "tagsfm/feature/feature_triangulation.h"
+#include "tagsfm/feature/guided_matcher.h"
+#include "tagsfm/feature/track_triangulation.h"
+
+namespace tagsfm {
+
+struct FeatureMapOptions {
+  GuidedMatcherOptions matcher;
+  TrackTriangulationOptions triangulation;
+  int max_neighbours = 8;  // earlier keyframes a new one is matched with, most overlapping first
+  // Share of the new keyframe's view (a grid of rays at its typical scene
+  // depth) that must fall inside an earlier keyframe's image.
+  double min_overlap = 0.2;
+  // Largest angle between the two cameras' rays to the overlapping part of
+  // the scene: beyond, SIFT descriptors no longer match (and would only
+  // yield wrong matches).
+  double max_view_angle_deg = 60.0;
+
+  Status Check() const;  // names the wrong field
+};
+
+// What adding one keyframe did.
+struct KeyframeMatchStats {
+  FrameId frame = 0;
+  std::vector<FrameId> matched_with;  // the earlier keyframes matched, most overlapping first
+  int matches = 0;                    // guided matches over all of them
+  int tracks_continued = 0;           // new features that joined a track of 2+ earlier views
+  int tracks_started = 0;             // new features that started a track with earlier single features
+  int tracks_merged = 0;              // two tracks of 2+ views joined through the new keyframe
+  int conflicts = 0;                  // matches refused: they would put two features of one keyframe in a track
+};
+
+class FeatureMap {
+ public:
+  // `camera`: the intrinsics the keyframes are undistorted with for matching.
+  static Result<FeatureMap> Create(const CameraModel& camera, const FeatureMapOptions& options);
+
+  // Adds a keyframe seen from `cam_from_world` with its scene in `depth` and
+  // matches it with the earlier ones that overlap it. An error (and no
+  // change) for a frame already added or bad features / depth range.
+  Result<KeyframeMatchStats> AddKeyframe(KeyframeFeatures features, const Rigid3d& cam_from_world, const DepthRange& depth);
+
+  // Tracks of two or more views, each view's feature index and pixel.
+  std::vector<FeatureTrack> Tracks() const;
+  // Points of every track from the final poses (options.triangulation).
+  std::vector<FeaturePoint> Triangulate(const PoseMap& cam_from_world, const CameraModel& camera) const;
+
+  int keyframes() const { return static_cast<int>(keyframes_.size()); }
+  const PosedKeyframe& keyframe(int index) const { return keyframes_[static_cast<size_t>(index)]; }
+  const FeatureMapOptions& options() const { return options_; }
+
+ private:
+  FeatureMap(const CameraModel& camera, const FeatureMapOptions& options);
+  // Earlier keyframes to match the last one with, most overlapping first.
+  std::vector<int> OverlappingKeyframes(const PosedKeyframe& added) const;
+  int Find(int node) const;
+  bool Union(int a, int b);  // false (and no change) on a conflict
+  std::vector<int> Members(int root) const;
+
+  CameraModel camera_;
+  FeatureMapOptions options_;
+  std::vector<Eigen::Vector3d> view_sample_rays_;  // unit rays over the image, camera frame
+  std::vector<PosedKeyframe> keyframes_;
+  std::vector<int> first_node_;         // node of feature 0 of each keyframe
+  // Union-find over every feature of every keyframe (node = first_node_ +
+  // index), with each root's members for the conflict check.
+  mutable std::vector<int> parent_;
+  std::vector<int> node_keyframe_;
+  std::vector<std::vector<int>> members_;  // at roots of 2+ nodes only
+};
+
+}  // namespace tagsfm

@@ -1,0 +1,60 @@
+#pragma once
+// Feature points from tracks over any number of keyframes and the final
+// (target-derived) poses: linear start, the angular-error refinement over
+// every view (the paper's ref. 5, feature_triangulation.h), views far off
+// the refined point dropped one at a time and the point refined again, then
+// kept by reprojection error, triangulation angle, cheirality and the
+// predicted sigma.
+#include <array>
+#include <cstdint>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "tagsfm/core/camera_model.h"
+#include "tagsfm/core/csv_formats.h"
+#include "tagsfm/core/result.h"
+#include "tagsfm/feature/feature_triangulation.h"
+
+namespace tagsfm {
+
+struct TrackObservation {
+  FrameId frame = 0;
+  int feature = -1;                                 // index in that keyframe's KeyframeFeatures
+  Eigen::Vector2d pixel = Eigen::Vector2d::Zero();  // distorted, OpenCV convention
+  std::array<std::uint8_t, 3> rgb{0, 0, 0};
+};
+
+// One scene point's observations, at most one per keyframe.
+struct FeatureTrack {
+  TrackId id = -1;
+  std::vector<TrackObservation> observations;
+};
+
+struct TrackTriangulationOptions {
+  int min_views = 2;            // views left after outlier removal
+  double min_angle_deg = 2.0;   // widest angle between two of the point's rays
+  // A view whose reprojection is further than this from the refined point
+  // is dropped (the worst first) and the point refined again.
+  double max_view_error_px = 2.0;
+  double max_reprojection_rms_px = 1.0;  // over the kept views
+  // The feature localisation noise the predicted sigma assumes, px; also the
+  // floor of the noise behind the stored covariance.
+  double feature_sigma_px = 0.5;
+  // Largest axis of the predicted covariance (at feature_sigma_px) over the
+  // distance to the nearest camera; wider is dropped (narrow rays).
+  double max_relative_sigma = 2e-3;
+  int max_iterations = 10;
+
+  Status Check() const;  // names the wrong field
+};
+
+// Points of the tracks whose views are in `cam_from_world`; FeaturePoint's
+// track is the track's id, its observations the views kept, its covariance
+// sigma^2 (J^T J)^-1 of the angular residuals with sigma the larger of its
+// reprojection RMS (corrected for the 3 fitted parameters) and
+// feature_sigma_px, over fx. Sorted by track id.
+std::vector<FeaturePoint> TriangulateTracks(const std::vector<FeatureTrack>& tracks, const PoseMap& cam_from_world,
+                                            const CameraModel& camera, const TrackTriangulationOptions& options);
+
+}  // namespace tagsfm

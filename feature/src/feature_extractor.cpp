@@ -1,0 +1,110 @@
+#include "tagsfm/feature/feature_extractor.h"
+
+#include <algorithm>
+#include <cmath>
+#include <string>
+
+#include <opencv2/features2d.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "tagsfm/feature/tag_mask.h"
+
+namespace tagsfm {
+
+Status FeatureExtractorOptions::Check() const {
+  if (max_features < 0) return MakeError("features.max_features must be >= 0 (0: no limit)");
+  if (!(contrast_threshold > 0 && contrast_threshold < 1)) return MakeError("features.contrast_threshold must be in (0, 1)");
+  if (!(tag_margin >= 0)) return MakeError("features.tag_margin must be >= 0");
+  if (!(image_scale > 0.1 && image_scale <= 1)) return MakeError("features.image_scale must be in (0.1, 1]");
+  return Status::Ok();
+}
+
+Status KeyframeFeatures::Check() const {
+  const size_t n = pixels.size();
+  const std::string where = "frame " + std::to_string(frame) + ": ";
+  if (rgb.size() != n || scale.size() != n || orientation.size() != n) return MakeError(where + "features' pixels, rgb, scale and orientation differ in length");
+  if (n > 0 && (descriptors.type() != CV_32F || descriptors.cols != 128 || static_cast<size_t>(descriptors.rows) != n)) {
+    return MakeError(where + "features need one 128-float descriptor per pixel");
+  }
+  return Status::Ok();
+}
+
+namespace {
+
+// Unit-L2 descriptors; RootSIFT compares them by the Hellinger kernel, which
+// matches better than L2 on SIFT histograms.
+void NormaliseDescriptors(cv::Mat& descriptors, bool root_sift) {
+  for (int r = 0; r < descriptors.rows; ++r) {
+    float* d = descriptors.ptr<float>(r);
+    if (root_sift) {
+      double l1 = 0;
+      for (int c = 0; c < descriptors.cols; ++c) l1 += std::abs(d[c]);
+      const double inv = l1 > 0 ? 1.0 / l1 : 0.0;
+      for (int c = 0; c < descriptors.cols; ++c) d[c] = static_cast<float>(std::sqrt(std::abs(d[c]) * inv));
+    } else {
+      double l2 = 0;
+      for (int c = 0; c < descriptors.cols; ++c) l2 += double(d[c]) * d[c];
+      const double inv = l2 > 0 ? 1.0 / std::sqrt(l2) : 0.0;
+      for (int c = 0; c < descriptors.cols; ++c) d[c] = static_cast<float>(d[c] * inv);
+    }
+  }
+}
+
+std::array<std::uint8_t, 3> ColourAt(const cv::Mat& gray, const cv::Mat& colour, const Eigen::Vector2d& pixel) {
+  const cv::Point p(std::clamp(cvRound(pixel.x()), 0, gray.cols - 1), std::clamp(cvRound(pixel.y()), 0, gray.rows - 1));
+  if (colour.type() == CV_8UC3 && colour.size() == gray.size()) {
+    const cv::Vec3b bgr = colour.at<cv::Vec3b>(p);
+    return {bgr[2], bgr[1], bgr[0]};
+  }
+  const std::uint8_t g = gray.at<std::uint8_t>(p);
+  return {g, g, g};
+}
+
+}  // namespace
+
+Result<KeyframeFeatures> ExtractFeatures(const cv::Mat& gray, const cv::Mat& colour, const DetectionSet& tags,
+                                         const FeatureExtractorOptions& options) {
+  if (Status s = options.Check(); !s) return s.error();
+  if (gray.empty() || gray.type() != CV_8UC1) return MakeError("frame " + std::to_string(tags.frame) + ": features need an 8-bit grey image");
+  cv::Ptr<cv::SIFT> sift = cv::SIFT::create(options.max_features, 3, options.contrast_threshold);
+  std::vector<cv::KeyPoint> keypoints;
+  cv::Mat descriptors;
+  const double scale = options.image_scale;
+  const cv::Mat full_mask = MaskOutsideTags(gray.size(), tags, options.tag_margin);
+  if (scale < 1.0) {
+    cv::Mat small, mask;
+    cv::resize(gray, small, cv::Size(), scale, scale, cv::INTER_AREA);
+    cv::resize(full_mask, mask, small.size(), 0, 0, cv::INTER_NEAREST);
+    sift->detectAndCompute(small, mask, keypoints, descriptors);
+  } else {
+    sift->detectAndCompute(gray, full_mask, keypoints, descriptors);
+  }
+  NormaliseDescriptors(descriptors, options.root_sift);
+
+  // OpenCV 4.6's SIFT doubles the image first (pixel-centre aligned) but
+  // halves the keypoints' coordinates as if corner aligned: every keypoint
+  // comes out +0.25 px in x and y (measured with a zoom of known homography,
+  // docs/features.md); a 0.25 px shift would bias every point by about
+  // depth * 0.25 / f.
+  constexpr double kSiftOffsetPx = 0.25;
+  KeyframeFeatures out;
+  out.frame = tags.frame;
+  out.descriptors = descriptors;
+  const size_t n = keypoints.size();
+  out.pixels.reserve(n);
+  out.rgb.reserve(n);
+  out.scale.reserve(n);
+  out.orientation.reserve(n);
+  for (const cv::KeyPoint& k : keypoints) {
+    // Back to full-size pixels, pixel centres at integers at both scales.
+    const Eigen::Vector2d pixel((k.pt.x - kSiftOffsetPx + 0.5) / scale - 0.5, (k.pt.y - kSiftOffsetPx + 0.5) / scale - 0.5);
+    out.pixels.push_back(pixel);
+    out.rgb.push_back(ColourAt(gray, colour, pixel));
+    out.scale.push_back(static_cast<float>(k.size / scale));
+    out.orientation.push_back(k.angle);
+  }
+  if (n == 0) out.descriptors = cv::Mat(0, 128, CV_32F);
+  return out;
+}
+
+}  // namespace tagsfm

@@ -1,0 +1,208 @@
+#include "tagsfm/feature/feature_map.h"
+
+#include <algorithm>
+#include <cmath>
+#include <string>
+
+namespace tagsfm {
+
+Status FeatureMapOptions::Check() const {
+  if (Status s = matcher.Check(); !s) return s;
+  if (Status s = triangulation.Check(); !s) return s;
+  if (max_neighbours < 1) return MakeError("feature_map.max_neighbours must be >= 1");
+  if (!(min_overlap >= 0 && min_overlap <= 1)) return MakeError("feature_map.min_overlap must be in [0, 1]");
+  if (!(max_view_angle_deg > 0 && max_view_angle_deg <= 180)) return MakeError("feature_map.max_view_angle_deg must be in (0, 180]");
+  return Status::Ok();
+}
+
+FeatureMap::FeatureMap(const CameraModel& camera, const FeatureMapOptions& options) : camera_(camera), options_(options) {
+  // A 9 x 6 grid of rays over the image, for the view overlap.
+  std::vector<Eigen::Vector2d> pixels;
+  constexpr int kCols = 9, kRows = 6;
+  for (int r = 0; r < kRows; ++r) {
+    for (int c = 0; c < kCols; ++c) pixels.emplace_back((c + 0.5) * camera.width / kCols - 0.5, (r + 0.5) * camera.height / kRows - 0.5);
+  }
+  for (const Eigen::Vector2d& n : camera.PixelsToNormalized(pixels)) view_sample_rays_.push_back(n.homogeneous());
+}
+
+Result<FeatureMap> FeatureMap::Create(const CameraModel& camera, const FeatureMapOptions& options) {
+  if (Status s = camera.Check(); !s) return s.error();
+  if (Status s = options.Check(); !s) return s.error();
+  return FeatureMap(camera, options);
+}
+
+namespace {
+
+// Share of `from`'s view (its sample rays at its typical depth) inside
+// `to`'s image, and the angle between the two cameras' rays to the
+// overlapping part (its centroid).
+struct Overlap {
+  double share = 0;
+  double angle_deg = 180;
+};
+
+Overlap ViewOverlap(const PosedKeyframe& from, const PosedKeyframe& to, const std::vector<Eigen::Vector3d>& rays,
+                    const CameraModel& camera) {
+  const Rigid3d world_from_cam = from.cam_from_world.Inverse();
+  const double depth = from.depth.Typical();
+  Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
+  int inside = 0;
+  for (const Eigen::Vector3d& ray : rays) {
+    const Eigen::Vector3d x = world_from_cam * (ray * depth);
+    const Eigen::Vector3d in_to = to.cam_from_world * x;
+    if (!(in_to.z() > 0)) continue;
+    const Eigen::Vector2d p = camera.Project(in_to);
+    if (p.x() < -0.5 || p.y() < -0.5 || p.x() > camera.width - 0.5 || p.y() > camera.height - 0.5) continue;
+    centroid += x;
+    ++inside;
+  }
+  Overlap o;
+  if (inside == 0) return o;
+  centroid /= inside;
+  o.share = double(inside) / static_cast<double>(rays.size());
+  const Eigen::Vector3d a = (centroid - from.cam_from_world.Center()).normalized();
+  const Eigen::Vector3d b = (centroid - to.cam_from_world.Center()).normalized();
+  o.angle_deg = std::acos(std::clamp(a.dot(b), -1.0, 1.0)) * 180.0 / M_PI;
+  return o;
+}
+
+}  // namespace
+
+std::vector<int> FeatureMap::OverlappingKeyframes(const PosedKeyframe& added) const {
+  struct Candidate {
+    int index;
+    double share;
+    double distance;
+  };
+  std::vector<Candidate> candidates;
+  for (size_t k = 0; k < keyframes_.size(); ++k) {
+    const PosedKeyframe& earlier = keyframes_[k];
+    // Both ways: each view's scene must be in the other's image.
+    const Overlap a = ViewOverlap(added, earlier, view_sample_rays_, camera_);
+    const Overlap b = ViewOverlap(earlier, added, view_sample_rays_, camera_);
+    const double share = std::min(a.share, b.share);
+    if (share <= 0 || share < options_.min_overlap) continue;
+    if (std::max(a.angle_deg, b.angle_deg) > options_.max_view_angle_deg) continue;
+    candidates.push_back({static_cast<int>(k), share, (added.cam_from_world.Center() - earlier.cam_from_world.Center()).norm()});
+  }
+  std::sort(candidates.begin(), candidates.end(), [](const Candidate& x, const Candidate& y) {
+    if (x.share != y.share) return x.share > y.share;
+    return x.distance < y.distance;
+  });
+  if (static_cast<int>(candidates.size()) > options_.max_neighbours) candidates.resize(static_cast<size_t>(options_.max_neighbours));
+  std::vector<int> out;
+  for (const Candidate& c : candidates) out.push_back(c.index);
+  return out;
+}
+
+int FeatureMap::Find(int node) const {
+  while (parent_[static_cast<size_t>(node)] != node) {
+    int& p = parent_[static_cast<size_t>(node)];
+    p = parent_[static_cast<size_t>(p)];  // path halving
+    node = p;
+  }
+  return node;
+}
+
+std::vector<int> FeatureMap::Members(int root) const {
+  const std::vector<int>& m = members_[static_cast<size_t>(root)];
+  return m.empty() ? std::vector<int>{root} : m;
+}
+
+bool FeatureMap::Union(int a, int b) {
+  int ra = Find(a), rb = Find(b);
+  if (ra == rb) return true;
+  std::vector<int> ma = Members(ra), mb = Members(rb);
+  if (ma.size() > mb.size()) {
+    std::swap(ra, rb);
+    std::swap(ma, mb);
+  }
+  // A track holds at most one feature per keyframe; tracks are short, so
+  // the pairwise check is cheap.
+  for (int x : ma) {
+    for (int y : mb) {
+      if (node_keyframe_[static_cast<size_t>(x)] == node_keyframe_[static_cast<size_t>(y)]) return false;
+    }
+  }
+  parent_[static_cast<size_t>(ra)] = rb;
+  mb.insert(mb.end(), ma.begin(), ma.end());
+  members_[static_cast<size_t>(rb)] = std::move(mb);
+  members_[static_cast<size_t>(ra)].clear();
+  members_[static_cast<size_t>(ra)].shrink_to_fit();
+  return true;
+}
+
+Result<KeyframeMatchStats> FeatureMap::AddKeyframe(KeyframeFeatures features, const Rigid3d& cam_from_world,
+                                                   const DepthRange& depth) {
+  for (const PosedKeyframe& k : keyframes_) {
+    if (k.features.frame == features.frame) return MakeError("frame " + std::to_string(features.frame) + ": already a keyframe of the feature map");
+  }
+  auto posed = MakePosedKeyframe(std::move(features), cam_from_world, depth, camera_);
+  if (!posed) return posed.error();
+  KeyframeMatchStats stats;
+  stats.frame = posed->features.frame;
+  const std::vector<int> neighbours = OverlappingKeyframes(*posed);
+
+  const int index = static_cast<int>(keyframes_.size());
+  const int first = static_cast<int>(parent_.size());
+  const int n = posed->features.size();
+  first_node_.push_back(first);
+  for (int i = 0; i < n; ++i) {
+    parent_.push_back(first + i);
+    node_keyframe_.push_back(index);
+  }
+  members_.resize(parent_.size());
+  keyframes_.push_back(std::move(*posed));
+  const PosedKeyframe& added = keyframes_.back();
+
+  for (int k : neighbours) {
+    const PosedKeyframe& earlier = keyframes_[static_cast<size_t>(k)];
+    stats.matched_with.push_back(earlier.features.frame);
+    const GuidedMatches matches = MatchGuided(added, earlier, camera_, options_.matcher);
+    stats.matches += static_cast<int>(matches.matches.size());
+    for (const FeatureMatch& m : matches.matches) {
+      const int node_new = first + m.first, node_old = first_node_[static_cast<size_t>(k)] + m.second;
+      const int root_new = Find(node_new), root_old = Find(node_old);
+      if (root_new == root_old) continue;
+      const size_t size_new = std::max<size_t>(1, members_[static_cast<size_t>(root_new)].size());
+      const size_t size_old = std::max<size_t>(1, members_[static_cast<size_t>(root_old)].size());
+      if (!Union(node_new, node_old)) {
+        ++stats.conflicts;
+        continue;
+      }
+      if (size_new == 1) {
+        ++(size_old >= 2 ? stats.tracks_continued : stats.tracks_started);
+      } else if (size_old >= 2) {
+        ++stats.tracks_merged;
+      }
+    }
+  }
+  return stats;
+}
+
+std::vector<FeatureTrack> FeatureMap::Tracks() const {
+  std::vector<FeatureTrack> tracks;
+  for (size_t root = 0; root < parent_.size(); ++root) {
+    if (parent_[root] != static_cast<int>(root) || members_[root].size() < 2) continue;
+    std::vector<int> nodes = members_[root];
+    std::sort(nodes.begin(), nodes.end());
+    FeatureTrack track;
+    track.id = nodes.front();
+    for (int node : nodes) {
+      const int k = node_keyframe_[static_cast<size_t>(node)];
+      const PosedKeyframe& kf = keyframes_[static_cast<size_t>(k)];
+      const int feature = node - first_node_[static_cast<size_t>(k)];
+      track.observations.push_back({kf.features.frame, feature, kf.features.pixels[static_cast<size_t>(feature)],
+                                    kf.features.rgb[static_cast<size_t>(feature)]});
+    }
+    tracks.push_back(std::move(track));
+  }
+  std::sort(tracks.begin(), tracks.end(), [](const FeatureTrack& a, const FeatureTrack& b) { return a.id < b.id; });
+  return tracks;
+}
+
+std::vector<FeaturePoint> FeatureMap::Triangulate(const PoseMap& cam_from_world, const CameraModel& camera) const {
+  return TriangulateTracks(Tracks(), cam_from_world, camera, options_.triangulation);
+}
+
+}  // namespace tagsfm

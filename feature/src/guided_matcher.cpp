@@ -1,0 +1,221 @@
+#include "tagsfm/feature/guided_matcher.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <string>
+
+namespace tagsfm {
+
+DepthRange DepthRange::Around(double depth_m, double factor) { return DepthRange{depth_m / factor, depth_m * factor}; }
+
+double DepthRange::Typical() const { return std::sqrt(near_m * far_m); }
+
+Status DepthRange::Check() const {
+  if (!(near_m > 0 && std::isfinite(far_m) && far_m > near_m)) {
+    return MakeError("depth range must have 0 < near < far (got " + std::to_string(near_m) + ", " + std::to_string(far_m) + ")");
+  }
+  return Status::Ok();
+}
+
+Status GuidedMatcherOptions::Check() const {
+  if (!(epipolar_px > 0)) return MakeError("matcher.epipolar_px must be > 0");
+  if (!(ratio > 0 && ratio <= 1)) return MakeError("matcher.ratio must be in (0, 1]");
+  if (!(max_descriptor_distance > 0 && max_descriptor_distance <= 2)) return MakeError("matcher.max_descriptor_distance must be in (0, 2]");
+  if (grid_cell_px < 2) return MakeError("matcher.grid_cell_px must be >= 2");
+  return Status::Ok();
+}
+
+Result<PosedKeyframe> MakePosedKeyframe(KeyframeFeatures features, const Rigid3d& cam_from_world, const DepthRange& depth,
+                                        const CameraModel& camera) {
+  if (Status s = features.Check(); !s) return s.error();
+  if (Status s = depth.Check(); !s) return MakeError("frame " + std::to_string(features.frame) + ": " + s.error().message);
+  PosedKeyframe k;
+  k.undistorted = camera.PixelsToNormalized(features.pixels);
+  for (Eigen::Vector2d& p : k.undistorted) p = Eigen::Vector2d(camera.fx * p.x() + camera.cx, camera.fy * p.y() + camera.cy);
+  k.features = std::move(features);
+  k.cam_from_world = cam_from_world;
+  k.depth = depth;
+  return k;
+}
+
+namespace {
+
+// The second keyframe's features bucketed in square cells (CSR layout).
+class FeatureGrid {
+ public:
+  FeatureGrid(const std::vector<Eigen::Vector2d>& points, double cell) : cell_(cell) {
+    lo_ = Eigen::Vector2d::Constant(std::numeric_limits<double>::max());
+    Eigen::Vector2d hi = -lo_;
+    for (const Eigen::Vector2d& p : points) {
+      lo_ = lo_.cwiseMin(p);
+      hi = hi.cwiseMax(p);
+    }
+    if (points.empty()) lo_ = hi = Eigen::Vector2d::Zero();
+    hi_ = hi;
+    cols_ = static_cast<int>((hi.x() - lo_.x()) / cell) + 1;
+    rows_ = static_cast<int>((hi.y() - lo_.y()) / cell) + 1;
+    start_.assign(static_cast<size_t>(cols_ * rows_) + 1, 0);
+    std::vector<int> cell_of(points.size());
+    for (size_t i = 0; i < points.size(); ++i) {
+      cell_of[i] = Cell(points[i]);
+      ++start_[static_cast<size_t>(cell_of[i]) + 1];
+    }
+    for (size_t c = 1; c < start_.size(); ++c) start_[c] += start_[c - 1];
+    items_.resize(points.size());
+    std::vector<int> fill(start_.begin(), start_.end() - 1);
+    for (size_t i = 0; i < points.size(); ++i) items_[static_cast<size_t>(fill[static_cast<size_t>(cell_of[i])]++)] = static_cast<int>(i);
+  }
+
+  const Eigen::Vector2d& lo() const { return lo_; }
+  const Eigen::Vector2d& hi() const { return hi_; }
+  int cells() const { return cols_ * rows_; }
+
+  // Calls visit(cell) for each cell overlapping the box [c - h, c + h].
+  template <typename Visit>
+  void ForCellsInBox(const Eigen::Vector2d& c, double h, Visit&& visit) const {
+    const int x0 = std::max(0, static_cast<int>(std::floor((c.x() - h - lo_.x()) / cell_)));
+    const int x1 = std::min(cols_ - 1, static_cast<int>(std::floor((c.x() + h - lo_.x()) / cell_)));
+    const int y0 = std::max(0, static_cast<int>(std::floor((c.y() - h - lo_.y()) / cell_)));
+    const int y1 = std::min(rows_ - 1, static_cast<int>(std::floor((c.y() + h - lo_.y()) / cell_)));
+    for (int y = y0; y <= y1; ++y) {
+      for (int x = x0; x <= x1; ++x) visit(y * cols_ + x);
+    }
+  }
+  template <typename Visit>
+  void ForItems(int cell, Visit&& visit) const {
+    for (int k = start_[static_cast<size_t>(cell)]; k < start_[static_cast<size_t>(cell) + 1]; ++k) visit(items_[static_cast<size_t>(k)]);
+  }
+
+ private:
+  int Cell(const Eigen::Vector2d& p) const {
+    const int x = std::clamp(static_cast<int>((p.x() - lo_.x()) / cell_), 0, cols_ - 1);
+    const int y = std::clamp(static_cast<int>((p.y() - lo_.y()) / cell_), 0, rows_ - 1);
+    return y * cols_ + x;
+  }
+
+  double cell_;
+  Eigen::Vector2d lo_, hi_;
+  int cols_ = 1, rows_ = 1;
+  std::vector<int> start_, items_;
+};
+
+// Clips the segment a-b to the box [lo, hi] (Liang-Barsky); false if it
+// misses the box.
+bool ClipSegment(const Eigen::Vector2d& lo, const Eigen::Vector2d& hi, Eigen::Vector2d* a, Eigen::Vector2d* b) {
+  double t0 = 0, t1 = 1;
+  const Eigen::Vector2d d = *b - *a;
+  for (int axis = 0; axis < 2; ++axis) {
+    const double p[2] = {-d[axis], d[axis]};
+    const double q[2] = {(*a)[axis] - lo[axis], hi[axis] - (*a)[axis]};
+    for (int k = 0; k < 2; ++k) {
+      if (p[k] == 0) {
+        if (q[k] < 0) return false;
+        continue;
+      }
+      const double r = q[k] / p[k];
+      if (p[k] < 0) t0 = std::max(t0, r);
+      else t1 = std::min(t1, r);
+    }
+  }
+  if (t0 > t1) return false;
+  const Eigen::Vector2d start = *a + t0 * d;
+  *b = *a + t1 * d;
+  *a = start;
+  return true;
+}
+
+double DistanceToSegment(const Eigen::Vector2d& p, const Eigen::Vector2d& a, const Eigen::Vector2d& b) {
+  const Eigen::Vector2d d = b - a;
+  const double len2 = d.squaredNorm();
+  const double t = len2 > 0 ? std::clamp((p - a).dot(d) / len2, 0.0, 1.0) : 0.0;
+  return (p - (a + t * d)).norm();
+}
+
+float DescriptorDistance(const float* a, const float* b) {
+  float dot = 0;
+  for (int k = 0; k < 128; ++k) dot += a[k] * b[k];
+  return std::sqrt(std::max(0.0f, 2.0f - 2.0f * dot));
+}
+
+struct BestTwo {
+  int best = -1;
+  float d1 = std::numeric_limits<float>::infinity();
+  float d2 = std::numeric_limits<float>::infinity();
+
+  void Offer(int index, float d) {
+    if (d < d1) {
+      d2 = d1;
+      d1 = d;
+      best = index;
+    } else if (d < d2) {
+      d2 = d;
+    }
+  }
+  bool Passes(double ratio, double max_distance) const { return best >= 0 && d1 <= max_distance && d1 < ratio * d2; }
+};
+
+}  // namespace
+
+GuidedMatches MatchGuided(const PosedKeyframe& first, const PosedKeyframe& second, const CameraModel& camera,
+                          const GuidedMatcherOptions& options) {
+  GuidedMatches out;
+  const int n1 = first.features.size(), n2 = second.features.size();
+  if (n1 == 0 || n2 == 0) return out;
+  const Rigid3d second_from_first = second.cam_from_world * first.cam_from_world.Inverse();
+  const Eigen::Matrix3d r = second_from_first.RotationMatrix();
+  const Eigen::Vector3d t = second_from_first.translation;
+  const double band = options.epipolar_px;
+  const double cell = options.grid_cell_px;
+  const FeatureGrid grid(second.undistorted, cell);
+  const Eigen::Vector2d lo = grid.lo() - Eigen::Vector2d::Constant(band), hi = grid.hi() + Eigen::Vector2d::Constant(band);
+  const double min_z = 1e-3 * first.depth.near_m;
+
+  std::vector<BestTwo> forward(static_cast<size_t>(n1)), backward(static_cast<size_t>(n2));
+  std::vector<int> stamp(static_cast<size_t>(grid.cells()), -1);
+  for (int i = 0; i < n1; ++i) {
+    const Eigen::Vector2d& u = first.undistorted[static_cast<size_t>(i)];
+    const Eigen::Vector3d rm = r * Eigen::Vector3d((u.x() - camera.cx) / camera.fx, (u.y() - camera.cy) / camera.fy, 1.0);
+    // Depths along the first camera's axis at which the ray is in front of
+    // the second camera.
+    double d0 = first.depth.near_m, d1 = first.depth.far_m;
+    if (rm.z() > 0) d0 = std::max(d0, (min_z - t.z()) / rm.z());
+    else if (rm.z() < 0) d1 = std::min(d1, (min_z - t.z()) / rm.z());
+    else if (t.z() <= min_z) continue;
+    if (!(d0 < d1)) continue;
+    auto project = [&](double d) {
+      const Eigen::Vector3d x = rm * d + t;
+      return Eigen::Vector2d(camera.fx * x.x() / x.z() + camera.cx, camera.fy * x.y() / x.z() + camera.cy);
+    };
+    Eigen::Vector2d a = project(d0), b = project(d1);
+    if (!ClipSegment(lo, hi, &a, &b)) continue;
+    const double length = (b - a).norm();
+    const int steps = static_cast<int>(std::ceil(length / (0.5 * cell)));
+    const float* desc1 = first.features.descriptors.ptr<float>(i);
+    BestTwo& f = forward[static_cast<size_t>(i)];
+    for (int s = 0; s <= steps; ++s) {
+      const Eigen::Vector2d c = steps > 0 ? Eigen::Vector2d(a + (b - a) * (double(s) / steps)) : a;
+      grid.ForCellsInBox(c, band + 0.25 * cell, [&](int cell_index) {
+        if (stamp[static_cast<size_t>(cell_index)] == i) return;
+        stamp[static_cast<size_t>(cell_index)] = i;
+        grid.ForItems(cell_index, [&](int j) {
+          if (DistanceToSegment(second.undistorted[static_cast<size_t>(j)], a, b) > band) return;
+          ++out.candidates;
+          const float d = DescriptorDistance(desc1, second.features.descriptors.ptr<float>(j));
+          f.Offer(j, d);
+          backward[static_cast<size_t>(j)].Offer(i, d);
+        });
+      });
+    }
+  }
+  for (int i = 0; i < n1; ++i) {
+    const BestTwo& f = forward[static_cast<size_t>(i)];
+    if (!f.Passes(options.ratio, options.max_descriptor_distance)) continue;
+    const BestTwo& b = backward[static_cast<size_t>(f.best)];
+    if (b.best != i || !b.Passes(options.ratio, options.max_descriptor_distance)) continue;
+    out.matches.push_back({i, f.best, f.d1});
+  }
+  return out;
+}
+
+}  // namespace tagsfm

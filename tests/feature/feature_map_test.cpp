@@ -1,0 +1,156 @@
+// The feature map on a rendered box walk with its true poses: tracks over
+// every overlapping keyframe, points against the true surfaces.
+#include <algorithm>
+#include <cmath>
+#include <iostream>
+#include <set>
+
+#include <gtest/gtest.h>
+
+#include "tagsfm/capture/recording.h"
+#include "tagsfm/eval/scene_geometry.h"
+#include "tagsfm/feature/feature_map.h"
+#include "tagsfm/synth/synthetic_recording.h"
+#include "test_paths.h"
+
+namespace tagsfm {
+namespace {
+
+namespace fs = std::filesystem;
+
+TEST(FeatureMap, OptionsAndInputAreChecked) {
+  CameraModel camera;
+  camera.width = 640;
+  camera.height = 480;
+  camera.fx = camera.fy = 500;
+  camera.cx = 319.5;
+  camera.cy = 239.5;
+  FeatureMapOptions options;
+  options.max_neighbours = 0;
+  auto bad = FeatureMap::Create(camera, options);
+  ASSERT_FALSE(bad.has_value());
+  EXPECT_NE(bad.error().message.find("max_neighbours"), std::string::npos);
+  auto map = FeatureMap::Create(camera, {});
+  ASSERT_TRUE(map.has_value());
+  KeyframeFeatures empty;
+  empty.frame = 4;
+  EXPECT_TRUE(map->AddKeyframe(empty, Rigid3d(), DepthRange{1, 4}).has_value());
+  auto again = map->AddKeyframe(empty, Rigid3d(), DepthRange{1, 4});
+  ASSERT_FALSE(again.has_value());
+  EXPECT_NE(again.error().message.find("frame 4"), std::string::npos);
+  empty.frame = 5;
+  EXPECT_FALSE(map->AddKeyframe(empty, Rigid3d(), DepthRange{4, 1}).has_value());
+  EXPECT_EQ(map->keyframes(), 1);
+}
+
+struct WalkResult {
+  int points = 0;
+  double within_2mm = 0, within_5mm = 0;
+  int tracks_with_gap = 0;  // tracks whose keyframes are not consecutive
+  int conflicts = 0;
+};
+
+// Renders a box walk, feeds every frame as a keyframe with its true pose and
+// the depth range of the true targets in view (median x/ 2), and scores the
+// points against the true surfaces.
+WalkResult RunWalk(const synth::SynthOptions& synth_options, bool shuffled) {
+  testing::TempDir scratch;
+  const fs::path rec = scratch.path() / "rec";
+  EXPECT_TRUE(synth::WriteSyntheticRecording(synth_options, rec).has_value());
+  auto reader = RecordingReader::Open(rec);
+  EXPECT_TRUE(reader.has_value());
+  const PoseMap poses = *ReadPosesCsv(rec / "ground_truth/poses.csv");
+  const TargetCornerMap targets = *ReadTargetsCsv(rec / "ground_truth/targets.csv");
+  const auto surfaces = eval::ReadSceneYaml(rec / "ground_truth/scene.yaml");
+  EXPECT_TRUE(surfaces.has_value());
+  const CameraModel camera = *reader->info().camera;
+  auto map = FeatureMap::Create(camera, {});
+  EXPECT_TRUE(map.has_value());
+  std::vector<size_t> order(reader->entries().size());
+  for (size_t i = 0; i < order.size(); ++i) order[i] = i;
+  // A photo set: no order to rely on.
+  if (shuffled) std::reverse(order.begin() + static_cast<long>(order.size() / 2), order.end()), std::swap(order[0], order[order.size() / 2]);
+  WalkResult r;
+  for (size_t i : order) {
+    auto frame = reader->LoadFrame(i);
+    EXPECT_TRUE(frame.has_value());
+    const Rigid3d& pose = poses.at(frame->index);
+    std::vector<double> depths;
+    for (const auto& [id, corners] : targets) {
+      for (const Eigen::Vector3d& c : corners) {
+        const Eigen::Vector3d x = pose * c;
+        const Eigen::Vector2d p = camera.Project(x);
+        if (x.z() > 0 && p.x() >= 0 && p.y() >= 0 && p.x() < camera.width && p.y() < camera.height) depths.push_back(x.z());
+      }
+    }
+    std::nth_element(depths.begin(), depths.begin() + static_cast<long>(depths.size() / 2), depths.end());
+    auto features = ExtractFeatures(frame->gray, cv::Mat(), DetectionSet{frame->index, {}}, {});
+    EXPECT_TRUE(features.has_value());
+    auto stats = map->AddKeyframe(std::move(*features), pose, DepthRange::Around(depths[depths.size() / 2], 2.0));
+    EXPECT_TRUE(stats.has_value());
+    r.conflicts += stats->conflicts;
+  }
+  for (const FeatureTrack& t : map->Tracks()) {
+    std::vector<FrameId> frames;
+    for (const TrackObservation& o : t.observations) frames.push_back(o.frame);
+    std::sort(frames.begin(), frames.end());
+    EXPECT_EQ(std::set<FrameId>(frames.begin(), frames.end()).size(), frames.size()) << "two features of one keyframe in track " << t.id;
+    r.tracks_with_gap += frames.back() - frames.front() + 1 > static_cast<FrameId>(frames.size());
+  }
+  const std::vector<FeaturePoint> points = map->Triangulate(poses, camera);
+  r.points = static_cast<int>(points.size());
+  for (const FeaturePoint& p : points) {
+    const double d = eval::DistanceToSurfaces(*surfaces, p.position);
+    r.within_2mm += d <= 2e-3;
+    r.within_5mm += d <= 5e-3;
+  }
+  if (r.points > 0) {
+    r.within_2mm /= r.points;
+    r.within_5mm /= r.points;
+  }
+  return r;
+}
+
+// 640x360, 10 frames: features on every keyframe, tracks across gaps (a
+// feature lost for a keyframe is found again), and points on the surfaces.
+// Bounds below what was measured (docs/features.md) by a margin for the
+// other scenes of the Slow suite; they fail if matching or triangulation
+// breaks (a wrong pose convention gives no points within 5 mm).
+TEST(FeatureMapSlow, SmallBoxWalkPointsLieOnTheTrueSurfaces) {
+  for (unsigned seed : {3u, 7u}) {
+    synth::SynthOptions options;
+    options.frames = 10;
+    options.width = 640;
+    options.height = 360;
+    options.max_azimuth_deg = 35;  // 8 degrees between keyframes
+    options.seed = seed;
+    options.blur = seed == 3 ? 0.7 : 1.0;
+    if (seed == 7) options.distortion = {-0.12, 0.03, 0, 0};
+    const WalkResult r = RunWalk(options, false);
+    std::cout << "seed " << seed << ": " << r.points << " points, " << r.within_2mm << " within 2 mm, " << r.within_5mm
+              << " within 5 mm, " << r.tracks_with_gap << " tracks across a gap\n";
+    // Measured 1,283-1,463 points, 80-81 % within 2 mm, 93-94 % within 5 mm.
+    EXPECT_GT(r.points, 900) << "seed " << seed;
+    EXPECT_GT(r.within_2mm, 0.7) << "seed " << seed;
+    EXPECT_GT(r.within_5mm, 0.88) << "seed " << seed;
+    EXPECT_GT(r.tracks_with_gap, 0) << "seed " << seed;
+  }
+}
+
+// Keyframes in no order (as a photo set arrives): the overlap from the
+// poses, not the order, picks the neighbours, so as many points come out.
+TEST(FeatureMapSlow, KeyframeOrderDoesNotMatter) {
+  synth::SynthOptions options;
+  options.frames = 10;
+  options.width = 640;
+  options.height = 360;
+  options.seed = 5;
+  const WalkResult in_order = RunWalk(options, false);
+  const WalkResult shuffled = RunWalk(options, true);
+  EXPECT_GT(in_order.points, 900);
+  EXPECT_GT(shuffled.points, 0.8 * in_order.points) << shuffled.points << " vs " << in_order.points;
+  EXPECT_GT(shuffled.within_5mm, 0.85);
+}
+
+}  // namespace
+}  // namespace tagsfm
