@@ -78,6 +78,25 @@ Stats CompareCloud(const EvaluationInput& in, const Sim3d& true_from_est) {
   return Stats::Of(distances);
 }
 
+SurfaceShares CompareFeaturePoints(const EvaluationInput& in, const Sim3d& true_from_est) {
+  SurfaceShares shares;
+  std::vector<double> distances;
+  distances.reserve(in.feature_points->size());
+  int within[3] = {0, 0, 0};
+  const double limits[3] = {0.001, 0.002, 0.005};
+  for (const ScoredPoint& point : *in.feature_points) {
+    const double d = DistanceToSurfaces(*in.surfaces, true_from_est * point.position);
+    distances.push_back(d);
+    for (int k = 0; k < 3; ++k) within[k] += d <= limits[k] ? 1 : 0;
+  }
+  const double n = static_cast<double>(distances.size());
+  shares.within_1mm = within[0] / n;
+  shares.within_2mm = within[1] / n;
+  shares.within_5mm = within[2] / n;
+  shares.distance_m = Stats::Of(std::move(distances));
+  return shares;
+}
+
 AlignedErrors CompareAll(const EvaluationInput& in, const std::string& name, const Sim3d& true_from_est) {
   AlignedErrors out;
   out.name = name;
@@ -85,6 +104,9 @@ AlignedErrors CompareAll(const EvaluationInput& in, const std::string& name, con
   if (in.true_poses && in.estimated_poses) out.poses = ComparePoses(in, true_from_est);
   if (in.true_targets && in.estimated_targets) out.targets = CompareTargets(in, true_from_est);
   if (in.surfaces && in.cloud) out.cloud_distance_m = CompareCloud(in, true_from_est);
+  if (in.surfaces && in.feature_points && !in.feature_points->empty()) {
+    out.feature_points = CompareFeaturePoints(in, true_from_est);
+  }
   return out;
 }
 
@@ -163,6 +185,12 @@ Evaluation Evaluate(const EvaluationInput& in) {
     }
   }
   if (in.cloud) e.cloud_points = static_cast<int>(in.cloud->size());
+  if (in.feature_points && !in.feature_points->empty()) {
+    e.feature_points = static_cast<int>(in.feature_points->size());
+    double sum = 0;
+    for (const ScoredPoint& p : *in.feature_points) sum += p.reprojection_px;
+    e.feature_mean_reprojection_px = sum / e.feature_points;
+  }
 
   e.variants.push_back(CompareAll(in, "as_is", Sim3d()));
   std::vector<Eigen::Vector3d> est, truth;

@@ -3,8 +3,10 @@
 
 #include "tagsfm/capture/recording.h"
 #include "tagsfm/core/file_util.h"
+#include "tagsfm/eval/colmap_model.h"
 #include "tagsfm/eval/evaluation.h"
 #include "tagsfm/eval/ply_reader.h"
+#include "tagsfm/recon/feature_points_csv.h"
 
 namespace tagsfm::eval {
 namespace {
@@ -55,6 +57,12 @@ json VariantJson(const AlignedErrors& v) {
                                     {"corner_error_m", StatsJson(v.targets->corner_error_m)}}
                              : json(nullptr);
   out["cloud_distance_m"] = v.cloud_distance_m ? StatsJson(*v.cloud_distance_m) : json(nullptr);
+  out["feature_points"] = v.feature_points ? json{{"count", v.feature_points->distance_m.count},
+                                                  {"distance_m", StatsJson(v.feature_points->distance_m)},
+                                                  {"within_1mm", v.feature_points->within_1mm},
+                                                  {"within_2mm", v.feature_points->within_2mm},
+                                                  {"within_5mm", v.feature_points->within_5mm}}
+                                           : json(nullptr);
   return out;
 }
 
@@ -66,19 +74,56 @@ json EvaluationJson(const Evaluation& e) {
                    {"not_in_ground_truth", e.unknown_frames}};
   out["tags"] = {{"missing", e.missing_tags}, {"not_in_ground_truth", e.unknown_tags}};
   out["cloud_points"] = e.cloud_points;
+  out["feature_points"] = {{"count", e.feature_points},
+                           {"mean_reprojection_px", e.feature_mean_reprojection_px
+                                                        ? json(*e.feature_mean_reprojection_px)
+                                                        : json(nullptr)}};
   json alignment = {{"source", e.alignment_source}, {"correspondences", e.alignment_correspondences}};
   for (const AlignedErrors& v : e.variants) {
     out[v.name] = VariantJson(v);
     if (v.name == "as_is") continue;
     alignment[v.name] = {{"scale", v.true_from_est.scale},
                          {"rotation_deg", RotationAngleDeg(v.true_from_est.rotation, Eigen::Quaterniond::Identity())},
-                         {"translation_m", Vector(v.true_from_est.translation)}};
+                         {"translation_m", Vector(v.true_from_est.translation)},
+                         {"scale_error_ppm", (v.true_from_est.scale - 1.0) * 1e6}};
   }
   out["alignment"] = alignment;
   for (const char* name : {"rigid", "similarity"}) {
     if (!out.contains(name)) out[name] = nullptr;
   }
   return out;
+}
+
+std::vector<ScoredPoint> FromFeaturesCsv(const std::map<long long, StoredFeaturePoint>& stored) {
+  std::vector<ScoredPoint> points;
+  points.reserve(stored.size());
+  for (const auto& [id, p] : stored) points.push_back({p.position, p.reprojection_rms_px});
+  return points;
+}
+
+// A COLMAP text model as OUT: poses by frames.csv's file names, its points
+// as the cloud and the feature points (COLMAP's ERROR is a per-point mean).
+Status LoadColmapModel(const fs::path& dir, const fs::path& rec_dir, EvaluationInput* in, json* result_files) {
+  Result<ColmapModel> model = ReadColmapTextModel(dir);
+  if (!model) return model.error();
+  Result<RecordingReader> recording = RecordingReader::Open(rec_dir);
+  if (!recording) return recording.error();
+  ColmapFramePoses poses = MatchImagesToFrames(*model, recording->entries(), rec_dir);
+  in->estimated_poses = std::move(poses.cam_from_world);
+  std::vector<Eigen::Vector3d> cloud;
+  std::vector<ScoredPoint> features;
+  for (const ColmapPoint& p : model->points) {
+    cloud.push_back(p.xyz);
+    features.push_back({p.xyz, p.error_px});
+  }
+  in->cloud = std::move(cloud);
+  in->feature_points = std::move(features);
+  (*result_files)["cameras.txt"] = !model->cameras.empty();
+  (*result_files)["images.txt"] = true;
+  (*result_files)["points3D.txt"] = true;
+  (*result_files)["colmap_images"] = model->images_by_name.size();
+  (*result_files)["colmap_images_not_in_frames_csv"] = poses.unmatched_images;
+  return Status::Ok();
 }
 
 }  // namespace
@@ -100,14 +145,22 @@ Result<std::string> EvaluateDirectoriesJson(const fs::path& out_dir, const fs::p
   Status s = LoadOptional(truth / "poses.csv", ReadPosesCsv, &in.true_poses, &truth_files, "poses.csv");
   if (s) s = LoadOptional(truth / "targets.csv", ReadTargetsCsv, &in.true_targets, &truth_files, "targets.csv");
   if (s) s = LoadOptional(truth / "scene.yaml", ReadSceneYaml, &in.surfaces, &truth_files, "scene.yaml");
-  if (s) s = LoadOptional(out_dir / "poses.csv", ReadPosesCsv, &in.estimated_poses, &result_files, "poses.csv");
-  if (s) s = LoadOptional(out_dir / "targets.csv", ReadTargetsCsv, &in.estimated_targets, &result_files, "targets.csv");
-  if (s) s = LoadOptional(out_dir / "cloud.ply", ReadPlyPoints, &in.cloud, &result_files, "cloud.ply");
+  const bool colmap = IsColmapTextModel(out_dir);
+  if (colmap) {
+    if (s) s = LoadColmapModel(out_dir, rec_dir, &in, &result_files);
+  } else {
+    if (s) s = LoadOptional(out_dir / "poses.csv", ReadPosesCsv, &in.estimated_poses, &result_files, "poses.csv");
+    if (s) s = LoadOptional(out_dir / "targets.csv", ReadTargetsCsv, &in.estimated_targets, &result_files, "targets.csv");
+    if (s) s = LoadOptional(out_dir / "cloud.ply", ReadPlyPoints, &in.cloud, &result_files, "cloud.ply");
+    std::optional<std::map<long long, StoredFeaturePoint>> features;
+    if (s) s = LoadOptional(out_dir / "features.csv", ReadFeaturePointsCsv, &features, &result_files, "features.csv");
+    if (features) in.feature_points = FromFeaturesCsv(*features);
+  }
   if (!s) return s.error();
 
   json report = nullptr;
   const fs::path report_path = out_dir / "report.json";
-  result_files["report.json"] = fs::is_regular_file(report_path, ec);
+  result_files["report.json"] = !colmap && fs::is_regular_file(report_path, ec);
   if (result_files["report.json"]) {
     Result<std::string> text = ReadFileToString(report_path);
     if (!text) return text.error();
@@ -118,6 +171,15 @@ Result<std::string> EvaluateDirectoriesJson(const fs::path& out_dir, const fs::p
   json out = EvaluationJson(Evaluate(in));
   out["out"] = out_dir.string();
   out["rec"] = rec_dir.string();
+  out["result_format"] = colmap ? "colmap_text" : "tagsfm";
+  if (in.feature_points) {
+    out["feature_points"]["source"] = colmap ? "points3D.txt" : "features.csv";
+    out["feature_points"]["reprojection_is"] =
+        colmap ? "mean over points of points3D.txt's ERROR (each point's mean over its track)"
+               : "mean over points of features.csv's reprojection_rms_px (each point's RMS over its track)";
+  } else {
+    out["feature_points"]["source"] = nullptr;
+  }
   out["files"] = files;
   out["report"] = report;
   return out.dump(2) + "\n";

@@ -7,7 +7,9 @@
 //          sign-aligned (also as an angle in degrees);
 //   eq. 3  positional error of the camera centres, metres;
 // plus target corner errors and the distance of every cloud point to the
-// true surfaces. Each is given as is, after a best-fit rigid alignment and
+// true surfaces, and for the natural-feature points alone (tagsfm's
+// features.csv, or a COLMAP model's points) the shares within 1, 2 and 5 mm
+// of them and their mean stored reprojection error. Each is given as is, after a best-fit rigid alignment and
 // after a best-fit similarity alignment (for results without metric scale
 // or in another world frame).
 #include <filesystem>
@@ -47,6 +49,21 @@ struct TargetErrors {
   Stats corner_error_m;  // rms and max are what matter
 };
 
+// A natural-feature point with the reprojection error its file stores:
+// tagsfm's features.csv the RMS over the point's observations, COLMAP's
+// points3D.txt (ERROR) the mean. RMS >= mean, so comparing the two is
+// conservative for tagsfm.
+struct ScoredPoint {
+  Eigen::Vector3d position = Eigen::Vector3d::Zero();
+  double reprojection_px = 0;
+};
+
+// How close the feature points come to the true surfaces.
+struct SurfaceShares {
+  Stats distance_m;
+  double within_1mm = 0, within_2mm = 0, within_5mm = 0;  // shares of the points, 0-1 (distance <= limit)
+};
+
 // One way of putting the estimate into the true frame.
 struct AlignedErrors {
   std::string name;  // "as_is", "rigid", "similarity"
@@ -54,6 +71,7 @@ struct AlignedErrors {
   std::optional<PoseErrors> poses;
   std::optional<TargetErrors> targets;
   std::optional<Stats> cloud_distance_m;
+  std::optional<SurfaceShares> feature_points;  // with surfaces and at least one feature point
 };
 
 // What a comparison needs, already loaded; absent parts are simply skipped.
@@ -63,6 +81,7 @@ struct EvaluationInput {
   std::optional<TargetCornerMap> true_targets, estimated_targets;
   std::optional<std::vector<SurfaceRectangle>> surfaces;
   std::optional<std::vector<Eigen::Vector3d>> cloud;
+  std::optional<std::vector<ScoredPoint>> feature_points;
 };
 
 struct Evaluation {
@@ -72,6 +91,8 @@ struct Evaluation {
   int unknown_frames = 0;       // estimated poses of frames the truth lacks
   std::vector<TagId> missing_tags, unknown_tags;
   int cloud_points = 0;
+  int feature_points = 0;
+  std::optional<double> feature_mean_reprojection_px;  // mean over the feature points of their stored error
   std::string alignment_source;  // "target_corners", "camera_centres" or "none"
   int alignment_correspondences = 0;
   std::vector<AlignedErrors> variants;  // as_is, then rigid and similarity when alignable
@@ -81,7 +102,10 @@ Evaluation Evaluate(const EvaluationInput& input);
 
 // Loads OUT/ and REC/ (missing optional files are reported as absent, a
 // malformed one is an error naming it), evaluates, and renders the JSON that
-// `tagsfm evaluate` prints.
+// `tagsfm evaluate` prints. OUT may also be a COLMAP text model (a folder
+// with images.txt and points3D.txt): its images are matched to REC's frames
+// by file name, its points are the cloud and the feature points, and it is
+// aligned by the camera centres (it has no targets).
 Result<std::string> EvaluateDirectoriesJson(const std::filesystem::path& out, const std::filesystem::path& rec);
 
 }  // namespace tagsfm::eval
