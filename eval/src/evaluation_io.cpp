@@ -6,7 +6,7 @@
 #include "tagsfm/eval/colmap_model.h"
 #include "tagsfm/eval/evaluation.h"
 #include "tagsfm/eval/ply_reader.h"
-#include "tagsfm/recon/feature_points_csv.h"
+#include "tagsfm/export/feature_points_csv.h"
 
 namespace tagsfm::eval {
 namespace {
