@@ -1,5 +1,7 @@
-// cloud.ply: binary little-endian, the target corners (vertex id = 4 * tag id
-// + corner) then the feature points, with colour, track length and error.
+// cloud.ply: binary little-endian, the target corners (4 per tag, tags in
+// id order: vertex 4 * i + corner for the i-th tag, which is 4 * tag id +
+// corner only when the ids have no gaps) then the feature points, with
+// colour, track length and error.
 #include <cstdint>
 #include <sstream>
 
@@ -13,7 +15,7 @@ Status WriteCloudPly(const std::filesystem::path& path, const ReconstructionResu
   const auto stats = ComputeCornerStats(result);
   std::ostringstream header;
   header << "ply\nformat binary_little_endian 1.0\n"
-         << "comment tagsfm: target corners (vertex id = 4 * tag_id + corner), then feature points\n"
+         << "comment tagsfm: target corners (4 per tag, tags in id order), then feature points\n"
          << "element vertex " << 4 * result.tags.size() + result.feature_points.size() << "\n"
          << "property double x\nproperty double y\nproperty double z\n"
          << "property uchar red\nproperty uchar green\nproperty uchar blue\n"
