@@ -5,8 +5,9 @@
 # (issue 13): COLMAP (Debian's colmap, CPU only, the intrinsics of
 # recording.yaml held fixed), `tagsfm replay REC` (targets + features) and
 # `tagsfm replay REC --no-targets` (feature SfM alone), each timed and scored
-# by `tagsfm evaluate`, in one table. tagsfm with targets is scored as it is
-# (its frame is the targets' metric frame); COLMAP and --no-targets after a
+# by `tagsfm evaluate`, in one table. tagsfm with targets is scored in its
+# own metric frame: as it is when REC names a target map, else after a rigid
+# fit (no scale) of its target corners; COLMAP and --no-targets after a
 # similarity alignment of their camera centres to the true ones.
 #
 # --out DIR   where the runs go (default: a new folder under /tmp)
@@ -32,6 +33,7 @@ while [ $# -gt 0 ]; do
   esac
 done
 [ -n "$rec" ] || { echo "usage: bench/compare_colmap.sh REC [--out DIR] [--reuse]" >&2; exit 2; }
+[ -d "$rec" ] || { echo "$rec: not a recording directory" >&2; exit 1; }
 rec="$(cd "$rec" && pwd)"
 [ -f "$rec/recording.yaml" ] || { echo "$rec/recording.yaml: missing" >&2; exit 1; }
 [ -d "$rec/ground_truth" ] || { echo "$rec/ground_truth: missing; the comparison needs the truth" >&2; exit 1; }
