@@ -1,9 +1,13 @@
 #!/usr/bin/env bash
 # Configures and builds tagsfm into BUILD_DIR (default: build/).
 # Extra arguments go to CMake's configure step, e.g. -DTAGSFM_SANITIZE=ON.
+# ccache, when installed, caches the compiler's output across builds and
+# clones (a 2-core machine rebuilds the whole tree in tens of minutes).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 build_dir="${BUILD_DIR:-build}"
-cmake -S . -B "$build_dir" -DCMAKE_BUILD_TYPE="${BUILD_TYPE:-Release}" "$@" > "$build_dir.configure.log" 2>&1 \
+launcher=()
+if command -v ccache > /dev/null; then launcher=(-DCMAKE_CXX_COMPILER_LAUNCHER=ccache -DCMAKE_C_COMPILER_LAUNCHER=ccache); fi
+cmake -S . -B "$build_dir" -DCMAKE_BUILD_TYPE="${BUILD_TYPE:-Release}" "${launcher[@]}" "$@" > "$build_dir.configure.log" 2>&1 \
   || { cat "$build_dir.configure.log"; exit 1; }
 cmake --build "$build_dir" -j"$(nproc)"

@@ -5,7 +5,7 @@
 set -euo pipefail
 
 PACKAGES=(
-  build-essential cmake pkg-config git
+  build-essential cmake pkg-config git ccache
   libopencv-dev libopencv-contrib-dev
   libeigen3-dev libceres-dev
   libapriltag-dev
