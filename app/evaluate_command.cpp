@@ -12,6 +12,7 @@
 #include <nlohmann/json.hpp>
 
 #include "command_registry.h"
+#include "tagsfm/analysis/length_error_plot.h"
 #include "tagsfm/eval/evaluation.h"
 
 namespace tagsfm {
@@ -20,8 +21,35 @@ namespace {
 struct EvaluateArgs {
   std::string out;
   std::string rec;
-  std::string summary;  // a variant name, or empty for the JSON
+  std::string summary;      // a variant name, or empty for the JSON
+  std::string length_plot;  // PNG of the length errors, or empty
 };
+
+// The JSON's "lengths" back as values, for the plot.
+eval::LengthErrors LengthsFromJson(const nlohmann::json& lengths) {
+  eval::LengthErrors out;
+  if (!lengths.is_object()) return out;
+  for (const nlohmann::json& p : lengths["pairs"]) {
+    eval::LengthError e;
+    e.a = p["a"].get<TagId>();
+    e.b = p["b"].get<TagId>();
+    e.true_length_m = p["true_length_m"].get<double>();
+    e.measured_length_m = p["measured_length_m"].get<double>();
+    e.error_m = p["error_m"].get<double>();
+    if (p["sigma_m"].is_number()) e.sigma_m = p["sigma_m"].get<double>();
+    out.pairs.push_back(e);
+  }
+  return out;
+}
+
+Status WriteLengthPlot(const std::string& json_text, const EvaluateArgs& args) {
+  const eval::LengthErrors lengths = LengthsFromJson(nlohmann::json::parse(json_text)["lengths"]);
+  if (lengths.pairs.empty()) return MakeError("--length-plot: no tag pairs common to " + args.out + " and the truth");
+  auto outcome = analysis::RenderLengthErrorPlot(lengths, "length error: " + args.out, args.length_plot);
+  if (!outcome) return outcome.error();
+  if (*outcome == analysis::PlotOutcome::kGnuplotMissing) spdlog::warn("gnuplot not found: only the script was written");
+  return Status::Ok();
+}
 
 std::string Fixed(const nlohmann::json& value, int digits, double factor = 1.0) {
   if (!value.is_number()) return "n/a";
@@ -59,8 +87,14 @@ void AddEvaluateCommand(CLI::App& app, int& exit_code) {
                   "frames, ground-truth frames, feature points, their mean reprojection error (px), % of them within "
                   "1, 2, 5 mm of the true surfaces, scale error of the similarity fit (ppm); n/a where absent")
       ->check(CLI::IsMember({"as_is", "rigid", "similarity"}));
+  cmd->add_option("--length-plot", args->length_plot,
+                  "also draw the length-measurement error of every tag pair against its length (VDI/VDE 2634-1 "
+                  "style) into this PNG (with its gnuplot script beside it)");
   cmd->callback([args, &exit_code] {
     Result<std::string> json = eval::EvaluateDirectoriesJson(args->out, args->rec);
+    if (json && !args->length_plot.empty()) {
+      if (Status s = WriteLengthPlot(*json, *args); !s) json = s.error();
+    }
     if (json && !args->summary.empty()) json = SummaryLine(*json, args->summary);
     if (!json) {
       spdlog::error("{}", json.error().message);

@@ -1,16 +1,20 @@
 // tagsfm measure OUT A B: the distance between two points of a replay's
 // result, with its standard deviation: targets (tag centre or corner) from
 // the final adjustment's covariance, feature points ("pID", ids as in
-// features.csv and colmap/points3D.txt) from their triangulation's.
+// features.csv and colmap/points3D.txt) from their triangulation's; or
+// with --all-pairs every pair of targets.
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <string>
 
+#include <fmt/format.h>
 #include <nlohmann/json.hpp>
 #include <spdlog/spdlog.h>
 
 #include "command_registry.h"
+#include "replay_support.h"
+#include "tagsfm/core/file_util.h"
 #include "tagsfm/export/feature_points_csv.h"
 #include "tagsfm/export/target_covariance_csv.h"
 #include "tagsfm/recon/measurement.h"
@@ -22,6 +26,7 @@ struct MeasureArgs {
   std::string out;
   std::string a, b;
   bool json = false;
+  bool all_pairs = false;
 };
 
 int Print(const MeasureArgs& args, const Measurement& measurement);
@@ -78,8 +83,57 @@ Result<Measurement> MeasureWithFeatures(const std::filesystem::path& dir, const 
   return m;
 }
 
+Result<std::optional<TagCovariance>> ReadOptionalCovariance(const std::filesystem::path& dir) {
+  if (!std::filesystem::exists(dir / "targets_cov.csv")) return std::optional<TagCovariance>();
+  auto cov = ReadTargetCovariance(dir / "targets_cov.csv");
+  if (!cov) return cov.error();
+  return std::optional<TagCovariance>(std::move(*cov));
+}
+
+// report.json's scale.sigma_rel (the scale's own uncertainty: print
+// tolerance or scale bars), 0 for results written before it was reported.
+double ScaleSigmaRel(const std::filesystem::path& dir) {
+  auto text = ReadFileToString(dir / "report.json");
+  if (!text) return 0.0;
+  const nlohmann::json report = nlohmann::json::parse(*text, nullptr, /*allow_exceptions=*/false);
+  if (!report.is_object() || !report.contains("scale") || !report["scale"]["sigma_rel"].is_number()) return 0.0;
+  return report["scale"]["sigma_rel"].get<double>();
+}
+
+// --all-pairs: every pair of targets centre to centre, shortest first (the
+// test lengths of a VDI/VDE 2634-1 style check, without truth).
+int RunAllPairs(const MeasureArgs& args) {
+  const std::filesystem::path dir(args.out);
+  auto targets = ReadTargetsCsv(dir / "targets.csv");
+  if (!targets) return Fail(targets.error(), 1);
+  auto covariance = ReadOptionalCovariance(dir);
+  if (!covariance) return Fail(covariance.error(), 1);
+  const std::vector<TagPairMeasurement> pairs = MeasureAllTagPairs(*targets, *covariance, ScaleSigmaRel(dir));
+  if (args.json) {
+    nlohmann::json j = nlohmann::json::array();
+    for (const TagPairMeasurement& p : pairs) {
+      const Measurement& m = p.measurement;
+      j.push_back({{"a", p.a}, {"b", p.b}, {"distance_m", m.distance_m},
+                   {"sigma_m", m.sigma_m ? nlohmann::json(*m.sigma_m) : nlohmann::json(nullptr)}});
+    }
+    std::printf("%s\n", j.dump(2).c_str());
+    return 0;
+  }
+  std::printf("tag_a,tag_b,distance_m,sigma_m\n");
+  for (const TagPairMeasurement& p : pairs) {
+    const Measurement& m = p.measurement;
+    std::printf("%d,%d,%.6f,%s\n", p.a, p.b, m.distance_m, m.sigma_m ? fmt::format("{:.6f}", *m.sigma_m).c_str() : "");
+  }
+  return 0;
+}
+
 int RunMeasure(const MeasureArgs& args) {
   const std::filesystem::path dir(args.out);
+  if (args.all_pairs) return RunAllPairs(args);
+  if (args.a.empty() || args.b.empty()) {
+    spdlog::error("measure needs two points A B, or --all-pairs");
+    return 2;
+  }
   if (IsFeatureRef(args.a) || IsFeatureRef(args.b)) {
     auto m = MeasureWithFeatures(dir, args.a, args.b);
     if (!m) {
@@ -99,16 +153,12 @@ int RunMeasure(const MeasureArgs& args) {
     spdlog::error("{}", targets.error().message);
     return 1;
   }
-  std::optional<TagCovariance> covariance;
-  if (std::filesystem::exists(dir / "targets_cov.csv")) {
-    auto cov = ReadTargetCovariance(dir / "targets_cov.csv");
-    if (!cov) {
-      spdlog::error("{}", cov.error().message);
-      return 1;
-    }
-    covariance = std::move(*cov);
+  auto covariance = ReadOptionalCovariance(dir);
+  if (!covariance) {
+    spdlog::error("{}", covariance.error().message);
+    return 1;
   }
-  auto m = MeasureDistance(*targets, covariance, *a, *b);
+  auto m = MeasureDistance(*targets, *covariance, *a, *b, ScaleSigmaRel(dir));
   if (!m) {
     spdlog::error("{}: {}", (dir / "targets.csv").string(), m.error().message);
     return 1;
@@ -136,8 +186,10 @@ void AddMeasureCommand(CLI::App& app, int& exit_code) {
   auto args = std::make_shared<MeasureArgs>();
   CLI::App* cmd = app.add_subcommand("measure", "distance between two points of a result (targets or feature points), with its standard deviation");
   cmd->add_option("out", args->out, "a replay's output folder (targets.csv, targets_cov.csv, features.csv)")->required();
-  cmd->add_option("a", args->a, "a point: tag id (its centre), ID:CORNER, or a feature point pID (features.csv)")->required();
-  cmd->add_option("b", args->b, "the other target")->required();
+  cmd->add_option("a", args->a, "a point: tag id (its centre), ID:CORNER, or a feature point pID (features.csv)");
+  cmd->add_option("b", args->b, "the other target");
+  cmd->add_flag("--all-pairs", args->all_pairs,
+                "every pair of targets centre to centre with its sigma, shortest first (CSV, or JSON with --json)");
   cmd->add_flag("--json", args->json, "print JSON");
   cmd->callback([args, &exit_code] { exit_code = RunMeasure(*args); });
 }

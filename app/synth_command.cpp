@@ -18,6 +18,7 @@ struct SynthArgs {
   std::string out;
   std::string distortion;
   std::string distance;
+  std::vector<std::string> scale_bars;  // "A,B" each
 };
 
 // "a,b,c" -> numbers; false names nothing, the caller does.
@@ -33,6 +34,14 @@ bool ParseList(const std::string& text, std::vector<double>* values) {
 
 int RunSynth(SynthArgs& args) {
   synth::SynthOptions& options = args.options;
+  for (const std::string& bar : args.scale_bars) {
+    std::vector<double> ids;
+    if (!ParseList(bar, &ids) || ids.size() != 2) {
+      spdlog::error("--scale-bar: expected two tag ids A,B (got '{}')", bar);
+      return 2;
+    }
+    options.scale_bars.push_back({static_cast<int>(ids[0]), static_cast<int>(ids[1])});
+  }
   if (!args.distortion.empty() && !ParseList(args.distortion, &options.distortion)) {
     spdlog::error("--distortion: expected comma-separated numbers k1,k2,p1,p2[,k3] (got '{}')", args.distortion);
     return 2;
@@ -82,6 +91,14 @@ void AddSynthCommand(CLI::App& app, int& exit_code) {
   cmd->add_option("--tag-margin", o.tag_margin,
                   "white modules round the tag's black square, the surface's texture beyond (1: the official image "
                   "printed edge to edge; 2: one module of paper more)")
+      ->capture_default_str();
+  cmd->add_option("--print-scale", o.print_scale,
+                  "tags drawn this much larger than recording.yaml says (a printer's scale error, e.g. 1.005)")
+      ->capture_default_str();
+  cmd->add_option("--scale-bar", args->scale_bars,
+                  "A,B: a scale bar between the centres of tags A and B in recording.yaml, at their true distance; "
+                  "repeatable");
+  cmd->add_option("--scale-bar-sigma", o.scale_bar_sigma_m, "the scale bars' certified 1-sigma, metres")
       ->capture_default_str();
   cmd->add_option("--distance", args->distance, "MIN,MAX camera distance to the scene centre, metres (default 1.5,3)");
   cmd->add_option("--azimuth", o.max_azimuth_deg, "views span +-this many degrees about the scene's front (0: 70 for box, 35 for wall)");

@@ -142,16 +142,22 @@ std::string GnuplotScript(const ExperimentResult& result, const std::filesystem:
 
 Result<PlotOutcome> RenderPlot(const ExperimentResult& result, const std::filesystem::path& image_path,
                                PlotFormat format) {
+  return RenderGnuplot([&](const std::filesystem::path& output) { return GnuplotScript(result, output, format); },
+                       image_path);
+}
+
+Result<PlotOutcome> RenderGnuplot(const std::function<std::string(const std::filesystem::path&)>& script_for,
+                                  const std::filesystem::path& image_path) {
   std::filesystem::path script_path = image_path;
   script_path.replace_extension(".gp");
   std::filesystem::path log_path = image_path;
   log_path.replace_extension(".gnuplot.log");
   // gnuplot writes to a temporary name that is renamed into place, so a reader never sees half an image.
   const std::filesystem::path temporary_image = image_path.string() + ".tmp";
-  if (Status written = WriteFileAtomically(script_path, GnuplotScript(result, image_path, format)); !written) {
+  if (Status written = WriteFileAtomically(script_path, script_for(image_path)); !written) {
     return written.error();
   }
-  const std::string render_script = GnuplotScript(result, temporary_image, format);
+  const std::string render_script = script_for(temporary_image);
   const std::filesystem::path render_path = script_path.string() + ".tmp";
   if (Status written = WriteFileAtomically(render_path, render_script); !written) return written.error();
 

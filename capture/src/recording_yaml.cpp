@@ -6,6 +6,7 @@
 
 #include "tagsfm/capture/recording.h"
 #include "tagsfm/capture/yaml_file.h"
+#include "tagsfm/core/file_util.h"
 
 namespace tagsfm {
 
@@ -36,6 +37,53 @@ Status TargetConfig::Check() const {
 }
 
 namespace {
+
+// "12" (tag 12's centre) or "12:3" (its corner 3).
+Result<ScaleBarPoint> ParseScaleBarPoint(const std::string& text, const std::string& where) {
+  ScaleBarPoint p;
+  const size_t colon = text.find(':');
+  long long id = 0, corner = -1;
+  if (!ParseInt64(text.substr(0, colon), &id) ||
+      (colon != std::string::npos && (!ParseInt64(text.substr(colon + 1), &corner) || corner < 0 || corner > 3))) {
+    return MakeError(where + ": '" + text + "' is not a target point (a tag id, or ID:CORNER with corner 0-3)");
+  }
+  p.tag = static_cast<TagId>(id);
+  p.corner = static_cast<int>(corner);
+  return p;
+}
+
+// targets.scale_bars: a list of {a, b, length_m, sigma_m}.
+Status ParseScaleBars(const YAML::Node& targets, const std::string& where, std::vector<ScaleBar>* bars) {
+  const YAML::Node list = targets["scale_bars"];
+  if (!list || list.IsNull()) return Status::Ok();
+  if (!list.IsSequence()) return MakeError(where + "scale_bars must be a list of {a, b, length_m, sigma_m}");
+  for (size_t i = 0; i < list.size(); ++i) {
+    const std::string at = where + "scale_bars[" + std::to_string(i) + "].";
+    if (!list[i].IsMap()) return MakeError(at.substr(0, at.size() - 1) + " must be a map {a, b, length_m, sigma_m}");
+    std::string a, b;
+    ScaleBar bar;
+    Status s = ReadYamlField(list[i], "a", at, &a, true);
+    if (s) s = ReadYamlField(list[i], "b", at, &b, true);
+    if (s) s = ReadYamlField(list[i], "length_m", at, &bar.length_m, true);
+    if (s) s = ReadYamlField(list[i], "sigma_m", at, &bar.sigma_m, true);
+    if (!s) return s;
+    auto pa = ParseScaleBarPoint(a, at + "a");
+    if (!pa) return pa.error();
+    auto pb = ParseScaleBarPoint(b, at + "b");
+    if (!pb) return pb.error();
+    bar.a = *pa;
+    bar.b = *pb;
+    if (!(bar.length_m > 0)) return MakeError(at + "length_m must be > 0");
+    if (!(bar.sigma_m > 0)) return MakeError(at + "sigma_m must be > 0 (the certificate's 1-sigma)");
+    if (bar.a.tag == bar.b.tag && bar.a.corner == bar.b.corner) return MakeError(at + "b: the same point as a");
+    bars->push_back(bar);
+  }
+  return Status::Ok();
+}
+
+std::string ScaleBarPointText(const ScaleBarPoint& p) {
+  return p.corner < 0 ? std::to_string(p.tag) : std::to_string(p.tag) + ":" + std::to_string(p.corner);
+}
 
 // The `camera:` and `targets:` blocks, shared by recording.yaml and the
 // daemon's config file.
@@ -70,6 +118,7 @@ Result<RecordingInfo> ParseCameraAndTargets(const YAML::Node& root, const std::s
   if (s) s = ReadYamlField(targets, "size_m", where, &info.targets.size_m, true);
   if (s) s = ReadYamlField(targets, "size_by_id", where, &info.targets.size_by_id, false);
   if (s) s = ReadYamlField(targets, "map", where, &info.targets.map, false);
+  if (s) s = ParseScaleBars(targets, where, &info.targets.scale_bars);
   if (!s) return s.error();
   if (Status check = info.targets.Check(); !check) return MakeError(file + ": " + check.error().message);
   return info;
@@ -115,6 +164,15 @@ std::string RecordingYamlText(const RecordingInfo& info) {
     out << YAML::Key << "size_by_id" << YAML::Value << YAML::Flow << info.targets.size_by_id;
   }
   if (!info.targets.map.empty()) out << YAML::Key << "map" << YAML::Value << info.targets.map;
+  if (!info.targets.scale_bars.empty()) {
+    out << YAML::Key << "scale_bars" << YAML::Value << YAML::BeginSeq;
+    for (const ScaleBar& bar : info.targets.scale_bars) {
+      out << YAML::Flow << YAML::BeginMap << YAML::Key << "a" << YAML::Value << ScaleBarPointText(bar.a) << YAML::Key
+          << "b" << YAML::Value << ScaleBarPointText(bar.b) << YAML::Key << "length_m" << YAML::Value << bar.length_m
+          << YAML::Key << "sigma_m" << YAML::Value << bar.sigma_m << YAML::EndMap;
+    }
+    out << YAML::EndSeq;
+  }
   out << YAML::EndMap << YAML::EndMap;
   return std::string(out.c_str()) + "\n";
 }

@@ -142,6 +142,37 @@ std::string AlignmentPoints(const EvaluationInput& in, std::vector<Eigen::Vector
   return "none";
 }
 
+// The rigid and similarity variants' corner RMS against the size of the
+// scene the common targets span.
+std::optional<MapPrecision> MapPrecisionOf(const std::vector<AlignedErrors>& variants,
+                                           const std::vector<Eigen::Vector3d>& true_corners) {
+  MapPrecision map;
+  Eigen::Vector3d low = true_corners.front(), high = true_corners.front();
+  for (const Eigen::Vector3d& p : true_corners) {
+    low = low.cwiseMin(p);
+    high = high.cwiseMax(p);
+  }
+  map.scene_size_m = (high - low).norm();
+  bool rigid = false, similarity = false;
+  for (const AlignedErrors& v : variants) {
+    if (!v.targets) continue;
+    const double rms = v.targets->corner_error_m.rms;
+    const double ratio = rms > 0 ? map.scene_size_m / rms : 0.0;
+    if (v.name == "rigid") {
+      map.rigid_rms_m = rms;
+      map.rigid_ratio = ratio;
+      rigid = true;
+    } else if (v.name == "similarity") {
+      map.similarity_rms_m = rms;
+      map.similarity_ratio = ratio;
+      map.scale_error_ppm = (v.true_from_est.scale - 1.0) * 1e6;
+      similarity = true;
+    }
+  }
+  if (!rigid || !similarity) return std::nullopt;
+  return map;
+}
+
 }  // namespace
 
 Stats Stats::Of(std::vector<double> values) {
@@ -201,6 +232,11 @@ Evaluation Evaluate(const EvaluationInput& in) {
       Result<Sim3d> sim = EstimateSim3d(est, truth, with_scale);
       if (sim) e.variants.push_back(CompareAll(in, with_scale ? "similarity" : "rigid", *sim));
     }
+  }
+  if (e.alignment_source == "target_corners") e.map = MapPrecisionOf(e.variants, truth);
+  if (in.true_targets && in.estimated_targets) {
+    e.lengths = CompareLengths(*in.true_targets, *in.estimated_targets, in.target_covariance, in.scale_sigma_rel);
+    if (e.lengths->pairs.empty()) e.lengths.reset();
   }
   return e;
 }

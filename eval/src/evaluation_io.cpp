@@ -7,6 +7,7 @@
 #include "tagsfm/eval/evaluation.h"
 #include "tagsfm/eval/ply_reader.h"
 #include "tagsfm/export/feature_points_csv.h"
+#include "tagsfm/export/target_covariance_csv.h"
 
 namespace tagsfm::eval {
 namespace {
@@ -66,6 +67,38 @@ json VariantJson(const AlignedErrors& v) {
   return out;
 }
 
+json MapJson(const MapPrecision& m) {
+  return {{"scene_size_m", m.scene_size_m},
+          {"rigid_rms_m", m.rigid_rms_m},
+          {"rigid_ratio", m.rigid_ratio},
+          {"similarity_rms_m", m.similarity_rms_m},
+          {"similarity_ratio", m.similarity_ratio},
+          {"scale_error_ppm", m.scale_error_ppm}};
+}
+
+// VDI/VDE 2634-1 style: every tag pair's length, its error and sigma.
+json LengthsJson(const LengthErrors& l) {
+  json pairs = json::array();
+  for (const LengthError& p : l.pairs) {
+    pairs.push_back({{"a", p.a},
+                     {"b", p.b},
+                     {"true_length_m", p.true_length_m},
+                     {"measured_length_m", p.measured_length_m},
+                     {"error_m", p.error_m},
+                     {"sigma_m", p.sigma_m ? json(*p.sigma_m) : json(nullptr)}});
+  }
+  json out = {{"count", l.pairs.size()},
+              {"abs_error_m", StatsJson(l.abs_error_m)},
+              {"error_per_length_ppm", l.error_per_length_ppm},
+              {"pairs", pairs}};
+  out["error_over_sigma"] = l.normalized_count > 0 ? json{{"count", l.normalized_count},
+                                                           {"mean", l.normalized_mean},
+                                                           {"std", l.normalized_std},
+                                                           {"beyond_3_sigma", l.beyond_3_sigma}}
+                                                     : json(nullptr);
+  return out;
+}
+
 json EvaluationJson(const Evaluation& e) {
   json out;
   out["frames"] = {{"ground_truth", e.ground_truth_frames},
@@ -88,6 +121,8 @@ json EvaluationJson(const Evaluation& e) {
                          {"scale_error_ppm", (v.true_from_est.scale - 1.0) * 1e6}};
   }
   out["alignment"] = alignment;
+  out["map"] = e.map ? MapJson(*e.map) : json(nullptr);
+  out["lengths"] = e.lengths ? LengthsJson(*e.lengths) : json(nullptr);
   for (const char* name : {"rigid", "similarity"}) {
     if (!out.contains(name)) out[name] = nullptr;
   }
@@ -155,6 +190,10 @@ Result<std::string> EvaluateDirectoriesJson(const fs::path& out_dir, const fs::p
     std::optional<std::map<long long, StoredFeaturePoint>> features;
     if (s) s = LoadOptional(out_dir / "features.csv", ReadFeaturePointsCsv, &features, &result_files, "features.csv");
     if (features) in.feature_points = FromFeaturesCsv(*features);
+    if (s) {
+      s = LoadOptional(out_dir / "targets_cov.csv", ReadTargetCovariance, &in.target_covariance, &result_files,
+                       "targets_cov.csv");
+    }
   }
   if (!s) return s.error();
 
@@ -168,6 +207,9 @@ Result<std::string> EvaluateDirectoriesJson(const fs::path& out_dir, const fs::p
     if (report.is_discarded()) return MakeError(report_path.string() + ": not valid JSON");
   }
 
+  if (report.is_object() && report.contains("scale") && report["scale"]["sigma_rel"].is_number()) {
+    in.scale_sigma_rel = report["scale"]["sigma_rel"].get<double>();
+  }
   json out = EvaluationJson(Evaluate(in));
   out["out"] = out_dir.string();
   out["rec"] = rec_dir.string();

@@ -24,6 +24,31 @@ nlohmann::json LatencyJson(const std::vector<double>& ms) {
 }
 
 
+std::string PointText(const ScaleBarPoint& p) {
+  return p.corner < 0 ? std::to_string(p.tag) : std::to_string(p.tag) + ":" + std::to_string(p.corner);
+}
+
+// Where the scale comes from; sigma_rel is what `measure` adds to every
+// length's sigma (scale part = sigma_rel * length).
+nlohmann::json ScaleJson(const MapScale& scale) {
+  nlohmann::json bars = nlohmann::json::array();
+  for (const ScaleBarCheck& c : scale.bars) {
+    bars.push_back({{"a", PointText(c.bar.a)},
+                    {"b", PointText(c.bar.b)},
+                    {"certified_m", c.bar.length_m},
+                    {"certified_sigma_m", c.bar.sigma_m},
+                    {"measured_unscaled_m", c.measured_m},
+                    {"map_sigma_m", c.sigma_m},
+                    {"residual_m", c.residual_m}});
+  }
+  nlohmann::json out = {{"source", scale.source},
+                        {"factor", scale.scale},
+                        {"sigma_rel", scale.sigma_rel},
+                        {"scale_bars", bars}};
+  if (!scale.note.empty()) out["note"] = scale.note;
+  return out;
+}
+
 }  // namespace
 
 Status WriteReport(const std::filesystem::path& path, const ReconstructionResult& result, const RunStats& stats) {
@@ -46,6 +71,10 @@ Status WriteReport(const std::filesystem::path& path, const ReconstructionResult
   report["frames_skipped"] = stats.frames_skipped;
   report["targets_seen"] = seen.size();
   report["targets_mapped"] = result.tags.size();
+  nlohmann::json unmapped = nlohmann::json::array();
+  for (const auto& [id, why] : result.unmapped_tags) unmapped.push_back({{"tag", id}, {"reason", why}});
+  report["unmapped_targets"] = unmapped;  // seen but not mapped, with why
+  report["scale"] = ScaleJson(result.scale);
   report["points"] = 4 * result.tags.size() + result.feature_points.size();
   report["feature_points"] = result.feature_points.size();
   report["observations"] = result.observations;

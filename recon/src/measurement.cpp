@@ -1,6 +1,8 @@
 #include "tagsfm/recon/measurement.h"
 
+#include <algorithm>
 #include <cmath>
+#include <iterator>
 
 #include "tagsfm/core/file_util.h"
 #include "tagsfm/recon/tag_geometry.h"
@@ -38,7 +40,7 @@ Result<TargetPointRef> ParseTargetPointRef(const std::string& text) {
 }
 
 Result<Measurement> MeasureDistance(const TargetCornerMap& targets, const std::optional<TagCovariance>& covariance,
-                                    const TargetPointRef& a, const TargetPointRef& b) {
+                                    const TargetPointRef& a, const TargetPointRef& b, double scale_sigma_rel) {
   auto ia = targets.find(a.tag), ib = targets.find(b.tag);
   if (ia == targets.end()) return MakeError("tag " + std::to_string(a.tag) + " is not in the result's targets");
   if (ib == targets.end()) return MakeError("tag " + std::to_string(b.tag) + " is not in the result's targets");
@@ -83,12 +85,33 @@ Result<Measurement> MeasureDistance(const TargetCornerMap& targets, const std::o
       variance += (s.gradient * covariance->covariance.block<6, 6>(6 * s.index, 6 * t.index) * t.gradient.transpose())(0, 0);
     }
   }
-  m.sigma_m = std::sqrt(std::max(variance, 0.0));
+  const double scale_part = scale_sigma_rel * m.distance_m;
+  m.sigma_m = std::sqrt(std::max(variance, 0.0) + scale_part * scale_part);
   if (!fixed.empty()) {
     m.note = "held fixed in the adjustment (known map or the world's anchor): tag";
     for (const auto& id : fixed) m.note += " " + id;
   }
   return m;
+}
+
+std::vector<TagPairMeasurement> MeasureAllTagPairs(const TargetCornerMap& targets,
+                                                   const std::optional<TagCovariance>& covariance,
+                                                   double scale_sigma_rel) {
+  std::vector<TagPairMeasurement> pairs;
+  for (auto a = targets.begin(); a != targets.end(); ++a) {
+    for (auto b = std::next(a); b != targets.end(); ++b) {
+      TargetPointRef ra, rb;
+      ra.tag = a->first;
+      rb.tag = b->first;
+      // Both tags are in `targets`, so this cannot fail.
+      Result<Measurement> m = MeasureDistance(targets, covariance, ra, rb, scale_sigma_rel);
+      if (m) pairs.push_back({a->first, b->first, std::move(*m)});
+    }
+  }
+  std::stable_sort(pairs.begin(), pairs.end(), [](const TagPairMeasurement& x, const TagPairMeasurement& y) {
+    return x.measurement.distance_m < y.measurement.distance_m;
+  });
+  return pairs;
 }
 
 }  // namespace tagsfm

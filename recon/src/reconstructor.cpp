@@ -2,7 +2,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 
+#include "tagsfm/recon/scale_bars.h"
 #include "tagsfm/recon/tag_geometry.h"
 #include "tagsfm/recon/tag_initializer.h"
 
@@ -19,6 +21,9 @@ Status ReconstructorOptions::Check() const {
   if (!(bootstrap_min_angle_deg >= 0)) return MakeError("recon.bootstrap_min_angle_deg must be >= 0");
   if (!(keyframe_min_translation_ratio >= 0)) return MakeError("recon.keyframe_min_translation_ratio must be >= 0");
   if (!(keyframe_min_rotation_deg >= 0)) return MakeError("recon.keyframe_min_rotation_deg must be >= 0");
+  if (!(tag_size_sigma_rel >= 0) || tag_size_sigma_rel > 0.1) {
+    return MakeError("recon.tag_size_sigma_rel must be in 0..0.1");
+  }
   return Status::Ok();
 }
 
@@ -532,6 +537,7 @@ ReconstructionResult Reconstructor::Finish(const PointTriangulation& triangulate
   result.tags_remapped = tags_remapped_;
   result.window_solves_failed = window_->failed_solves();
   if (options_.final_adjustment && !registered.empty()) AdjustFinally(registered, &result);
+  ApplyScale(&registered, &result);
   if (triangulate && !registered.empty()) {
     PoseMap poses;
     for (const FrameState* frame : registered) poses[frame->frame] = frame->cam_from_world.ToRigid();
@@ -544,7 +550,34 @@ ReconstructionResult Reconstructor::Finish(const PointTriangulation& triangulate
   result.tags = tags_;
   result.pose_method_counts = method_counts_;
   result.anchor_tag = anchor_;
+  result.unmapped_tags = UnmappedTagReasons();
   return result;
+}
+
+std::map<TagId, std::string> Reconstructor::UnmappedTagReasons() const {
+  std::map<TagId, int> frames_seen, registered_seen;
+  for (const FrameState& f : frames_) {
+    for (const TagObservation& t : f.tags) {
+      if (tags_.count(t.id)) continue;
+      ++frames_seen[t.id];
+      registered_seen[t.id] += f.registered ? 1 : 0;
+    }
+  }
+  std::map<TagId, std::string> reasons;
+  for (const auto& [id, seen] : frames_seen) {
+    const auto known = unmapped_reasons_.find(id);
+    if (known != unmapped_reasons_.end() && pending_.count(id)) {
+      reasons[id] = known->second;
+    } else if (seen == 1) {
+      reasons[id] = "seen in one frame only";
+    } else if (registered_seen[id] == 0) {
+      reasons[id] = "seen in " + std::to_string(seen) + " frames, none of them registered";
+    } else {
+      reasons[id] = "seen in " + std::to_string(seen) + " frames (" + std::to_string(registered_seen[id]) +
+                    " registered) but never waiting to be mapped (its views were outliers or ambiguous)";
+    }
+  }
+  return reasons;
 }
 
 void Reconstructor::MapWaitingTags() {
@@ -560,9 +593,27 @@ void Reconstructor::MapWaitingTags() {
     std::vector<TagView> views;
     for (FrameState* f : it->second) views.push_back({f, f->Find(id)});
     const auto init = InitializeTag(views, targets_.SizeOf(id), fx_, fy_);
-    if (!init || init->rms_px > TagInitLimitPx()) continue;
-    if (registered_frames >= 2 &&
-        MaxViewAngleDeg(views, init->world_from_tag.translation) < options_.min_tag_view_angle_deg) {
+    if (!init) {
+      unmapped_reasons_[id] = "no pose fits its " + std::to_string(views.size()) + " registered views";
+      continue;
+    }
+    if (init->rms_px > TagInitLimitPx()) {
+      char why[128];
+      std::snprintf(why, sizeof why, "its best pose fits its %zu registered views at %.2f px RMS (limit %.2f)",
+                    views.size(), init->rms_px, TagInitLimitPx());
+      unmapped_reasons_[id] = why;
+      continue;
+    }
+    if (views.size() == 1 && registered_frames >= 2) {
+      unmapped_reasons_[id] = "seen in one registered frame only";
+      continue;
+    }
+    const double span_deg = MaxViewAngleDeg(views, init->world_from_tag.translation);
+    if (registered_frames >= 2 && span_deg < options_.min_tag_view_angle_deg) {
+      char why[128];
+      std::snprintf(why, sizeof why, "its %zu registered views span %.1f deg (at least %.1f needed)", views.size(),
+                    span_deg, options_.min_tag_view_angle_deg);
+      unmapped_reasons_[id] = why;
       continue;
     }
     MapTag tag;
@@ -634,6 +685,26 @@ void Reconstructor::AdjustFinally(const std::vector<FrameState*>& registered, Re
   result->covariance_note = summary.covariance_note;
   result->global_adjustment_s = summary.solve_s;
   result->covariance_s = summary.covariance_s;
+}
+
+void Reconstructor::ApplyScale(std::vector<FrameState*>* registered, ReconstructionResult* result) {
+  result->scale.sigma_rel = options_.tag_size_sigma_rel;
+  if (targets_.scale_bars.empty()) return;
+  const bool known_map = std::any_of(tags_.begin(), tags_.end(), [](const auto& t) { return t.second.known; });
+  TargetCornerMap corners;
+  for (const auto& [id, tag] : tags_) corners[id] = tag.CornersInWorld();
+  Result<MapScale> fit = FitScaleBars(targets_.scale_bars, corners, result->covariance);
+  if (!fit) {
+    result->scale.note = fit.error().message + "; the scale comes from the tag sizes";
+    return;
+  }
+  if (known_map) {
+    result->scale.bars = fit->bars;
+    result->scale.note = "a known map fixes the scale: the scale bars are only checked against it";
+    return;
+  }
+  ScaleScene(fit->scale, registered, &tags_, &result->covariance);
+  result->scale = *fit;
 }
 
 void Reconstructor::AdjustWithPoints(const std::vector<FrameState*>& registered, std::vector<FeaturePoint>* points,

@@ -65,7 +65,7 @@ Status PlaceTags(Scene* scene, const TagRegion& region, const SynthOptions& opti
         tag.face = region.face;
         tag.centre_in_face = centre;
         tag.angle_rad = rng.uniform(-region.max_angle_rad, region.max_angle_rad);
-        tag.size_m = options.tag_size;
+        tag.size_m = options.tag_size * options.print_scale;
         tag.margin_modules = options.tag_margin;
         tag.pattern = std::move(*pattern);
         scene->tags.push_back(std::move(tag));

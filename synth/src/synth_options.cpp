@@ -43,6 +43,13 @@ Status SynthOptions::Check() const {
   }
   if (!(tag_size >= 0.01) || tag_size > 0.2) return FieldError("tag-size", "must be in 0.01..0.2 m", tag_size);
   if (!(tag_margin >= 1.0) || tag_margin > 10) return FieldError("tag-margin", "must be in 1..10 modules", tag_margin);
+  if (!(print_scale >= 0.9) || print_scale > 1.1) return FieldError("print-scale", "must be in 0.9..1.1", print_scale);
+  if (!(scale_bar_sigma_m > 0) || scale_bar_sigma_m > 0.01) {
+    return FieldError("scale-bar-sigma", "must be in (0, 0.01] m", scale_bar_sigma_m);
+  }
+  for (const auto& [a, b] : scale_bars) {
+    if (a < 0 || b < 0 || a == b) return FieldError("scale-bar", "takes two different tag ids A,B", a);
+  }
   if (!(min_distance >= 0.5)) return FieldError("distance", "minimum must be >= 0.5 m", min_distance);
   if (!(max_distance >= min_distance) || max_distance > 50) {
     return FieldError("distance", "maximum must be in [minimum, 50] m", max_distance);

@@ -81,6 +81,30 @@ std::string SceneYamlText(const Scene& scene, const SynthOptions& options) {
   return std::string(out.c_str()) + "\n";
 }
 
+namespace {
+
+// The scale bars asked for, at the true distance between the tags' centres.
+Status AddScaleBars(const SynthOptions& options, const Scene& scene, TargetConfig* targets) {
+  const TargetCornerMap truth = SceneTargets(scene);
+  for (const auto& [a, b] : options.scale_bars) {
+    const auto ia = truth.find(a), ib = truth.find(b);
+    if (ia == truth.end() || ib == truth.end()) {
+      return MakeError("--scale-bar " + std::to_string(a) + "," + std::to_string(b) + ": the scene has no tag " +
+                       std::to_string(ia == truth.end() ? a : b));
+    }
+    const auto centre = [](const TagCorners& c) { return 0.25 * (c[0] + c[1] + c[2] + c[3]); };
+    ScaleBar bar;
+    bar.a.tag = a;
+    bar.b.tag = b;
+    bar.length_m = (centre(ia->second) - centre(ib->second)).norm();
+    bar.sigma_m = options.scale_bar_sigma_m;
+    targets->scale_bars.push_back(bar);
+  }
+  return Status::Ok();
+}
+
+}  // namespace
+
 Result<SynthSummary> WriteSyntheticRecording(const SynthOptions& options, const std::filesystem::path& dir) {
   const Clock::time_point start = Clock::now();
   if (Status s = options.Check(); !s) return s.error();
@@ -94,6 +118,7 @@ Result<SynthSummary> WriteSyntheticRecording(const SynthOptions& options, const 
   info.targets.family = options.family;
   info.targets.size_m = options.tag_size;
   if (options.with_map) info.targets.map = "targets.csv";
+  if (Status s = AddScaleBars(options, *scene, &info.targets); !s) return s.error();
   Result<std::unique_ptr<RecordingWriter>> writer = RecordingWriter::Create(dir, info);
   if (!writer) return writer.error();
   // The truth goes first, so even a recording cut short has it.

@@ -3,6 +3,7 @@
 // data inline, rendered by the gnuplot executable to PNG (pngcairo). The
 // script is kept beside the image so a reader can restyle and re-render it.
 #include <filesystem>
+#include <functional>
 #include <string>
 
 #include "tagsfm/analysis/experiment_result.h"
@@ -25,5 +26,9 @@ enum class PlotOutcome { kWritten, kGnuplotMissing };
 // when gnuplot runs but fails (its messages are in `<stem>.gnuplot.log`).
 Result<PlotOutcome> RenderPlot(const ExperimentResult& result, const std::filesystem::path& image_path,
                                PlotFormat format = PlotFormat::kCairo);
+
+// The same for any script: `script_for(output)` draws into `output`.
+Result<PlotOutcome> RenderGnuplot(const std::function<std::string(const std::filesystem::path&)>& script_for,
+                                  const std::filesystem::path& image_path);
 
 }  // namespace tagsfm::analysis

@@ -14,11 +14,27 @@
 
 namespace tagsfm {
 
+// One end of a scale bar: a tag's corner (0-3, libapriltag's order) or, with
+// corner -1, its centre.
+struct ScaleBarPoint {
+  TagId tag = -1;
+  int corner = -1;
+};
+
+// A certified distance between two target points (targets.scale_bars): the
+// adjustment's scale then comes from it, not from the printed tag sizes.
+struct ScaleBar {
+  ScaleBarPoint a, b;
+  double length_m = 0;
+  double sigma_m = 0;  // its 1-sigma uncertainty (the certificate's)
+};
+
 struct TargetConfig {
   std::string family = "tag36h11";      // any libapriltag family name
   double size_m = 0.0;                  // edge of the tag's black square
   std::map<TagId, double> size_by_id;   // tags whose size differs
   std::string map;                      // optional targets.csv, relative to REC
+  std::vector<ScaleBar> scale_bars;     // optional certified distances between target points
 
   double SizeOf(TagId id) const;
   Status Check() const;

@@ -22,6 +22,7 @@
 #include "tagsfm/core/csv_formats.h"
 #include "tagsfm/eval/scene_geometry.h"
 #include "tagsfm/eval/similarity.h"
+#include "tagsfm/recon/measurement.h"
 
 namespace tagsfm::eval {
 
@@ -74,6 +75,36 @@ struct AlignedErrors {
   std::optional<SurfaceShares> feature_points;  // with surfaces and at least one feature point
 };
 
+// One test length in the style of VDI/VDE 2634-1: the distance between two
+// tags' centres as measured (no alignment: a length needs none) against the
+// true one; sigma from the result's covariance (targets_cov.csv) when given.
+struct LengthError {
+  TagId a = -1, b = -1;
+  double true_length_m = 0, measured_length_m = 0;
+  double error_m = 0;              // measured - true (the length-measurement error E)
+  std::optional<double> sigma_m;
+};
+
+struct LengthErrors {
+  std::vector<LengthError> pairs;  // every pair of tags in both maps, shortest first
+  Stats abs_error_m;
+  // error / sigma over the pairs with a sigma above zero: a sigma that
+  // describes the error has mean ~0 and standard deviation ~1.
+  int normalized_count = 0;
+  double normalized_mean = 0, normalized_std = 0;
+  double beyond_3_sigma = 0;       // share of those pairs, 0-1
+  double error_per_length_ppm = 0; // least-squares slope of E against L (a scale error shows here)
+};
+
+// The self-survey's precision: the estimated map against the true targets
+// as a fraction of the scene's size (the true corners' bounding-box diagonal).
+struct MapPrecision {
+  double scene_size_m = 0;
+  double rigid_rms_m = 0, similarity_rms_m = 0;  // corner RMS after each alignment
+  double rigid_ratio = 0, similarity_ratio = 0;  // scene size / RMS (1:N)
+  double scale_error_ppm = 0;                    // the similarity fit's scale - 1
+};
+
 // What a comparison needs, already loaded; absent parts are simply skipped.
 struct EvaluationInput {
   std::optional<CameraModel> camera;
@@ -82,6 +113,8 @@ struct EvaluationInput {
   std::optional<std::vector<SurfaceRectangle>> surfaces;
   std::optional<std::vector<Eigen::Vector3d>> cloud;
   std::optional<std::vector<ScoredPoint>> feature_points;
+  std::optional<TagCovariance> target_covariance;  // the result's targets_cov.csv
+  double scale_sigma_rel = 0;                      // report.json's scale.sigma_rel (0 when absent)
 };
 
 struct Evaluation {
@@ -96,9 +129,15 @@ struct Evaluation {
   std::string alignment_source;  // "target_corners", "camera_centres" or "none"
   int alignment_correspondences = 0;
   std::vector<AlignedErrors> variants;  // as_is, then rigid and similarity when alignable
+  std::optional<MapPrecision> map;      // with target-corner alignment
+  std::optional<LengthErrors> lengths;  // with two or more tags in both maps
 };
 
 Evaluation Evaluate(const EvaluationInput& input);
+
+// The length errors of every pair of tags common to both maps.
+LengthErrors CompareLengths(const TargetCornerMap& truth, const TargetCornerMap& estimate,
+                            const std::optional<TagCovariance>& covariance, double scale_sigma_rel = 0);
 
 // Loads OUT/ and REC/ (missing optional files are reported as absent, a
 // malformed one is an error naming it), evaluates, and renders the JSON that

@@ -3,6 +3,7 @@
 // propagated from the final adjustment's covariance of the tags' poses.
 #include <optional>
 #include <string>
+#include <vector>
 
 #include <Eigen/Core>
 
@@ -31,7 +32,22 @@ struct Measurement {
 
 // `covariance` is the result's learned-tag covariance (targets_cov.csv);
 // tags not in it (a known map's, the anchor) count as exact.
+// `scale_sigma_rel` is what the images cannot see: the relative sigma of the
+// map's scale (report.json's scale.sigma_rel: the tags' print tolerance, or
+// the scale bars'), added as scale_sigma_rel * distance.
 Result<Measurement> MeasureDistance(const TargetCornerMap& targets, const std::optional<TagCovariance>& covariance,
-                                    const TargetPointRef& a, const TargetPointRef& b);
+                                    const TargetPointRef& a, const TargetPointRef& b, double scale_sigma_rel = 0);
+
+// The distance between two tags' centres (VDI/VDE 2634-1's length test
+// takes every pair of targets as a test length).
+struct TagPairMeasurement {
+  TagId a = -1, b = -1;
+  Measurement measurement;
+};
+
+// Every pair of tags of `targets` (a < b), centre to centre, shortest first.
+std::vector<TagPairMeasurement> MeasureAllTagPairs(const TargetCornerMap& targets,
+                                                   const std::optional<TagCovariance>& covariance,
+                                                   double scale_sigma_rel = 0);
 
 }  // namespace tagsfm

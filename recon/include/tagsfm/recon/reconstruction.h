@@ -10,6 +10,7 @@
 
 #include <Eigen/Core>
 
+#include "tagsfm/capture/recording.h"
 #include "tagsfm/core/camera_model.h"
 #include "tagsfm/core/csv_formats.h"
 #include "tagsfm/feature/feature_triangulation.h"
@@ -72,6 +73,25 @@ struct TagCovariance {
   Eigen::MatrixXd covariance;  // 6 * ids.size() square
 };
 
+// A scale bar as the result found it.
+struct ScaleBarCheck {
+  ScaleBar bar;
+  double measured_m = 0;  // in the map as adjusted at the nominal tag sizes
+  double sigma_m = 0;     // the map's own sigma of that length (0 without a covariance)
+  double residual_m = 0;  // scaled length - certified length
+};
+
+// Where the map's scale comes from and how well it is known: the printed
+// tag sizes (sigma_rel: the print tolerance, ReconstructorOptions::
+// tag_size_sigma_rel) or the scale bars (scale_bars.h).
+struct MapScale {
+  std::string source = "tag sizes";  // or "scale bars"
+  double scale = 1.0;                // applied to the scene adjusted at the nominal sizes
+  double sigma_rel = 0.0;            // the scale's relative 1-sigma
+  std::vector<ScaleBarCheck> bars;
+  std::string note;                  // e.g. why the bars were not used
+};
+
 // Per-target figures of the result.
 struct TargetStats {
   int track_length = 0;        // frames that saw the tag
@@ -97,6 +117,8 @@ struct ReconstructionResult {
   int tags_remapped = 0;                     // learned tags mapped again while running (disagreed with the frames)
   std::map<std::string, int> pose_method_counts;  // "epnp", "sqpnp", "ippe", "fallback", ...
   std::optional<TagId> anchor_tag;           // the tag that fixes the world frame (no known map)
+  std::map<TagId, std::string> unmapped_tags;  // seen but not mapped, with why
+  MapScale scale;
   bool global_adjustment_converged = false;
   int window_solves_failed = 0;
   int points_adjusted = 0;                   // feature points in the last adjustment with the targets

@@ -47,6 +47,11 @@ struct ReconstructorOptions {
   // Adjust the intrinsics too in the final adjustment (a camera calibrated
   // from the targets: pinhole, k1 k2 only).
   bool refine_intrinsics = false;
+  // The printed tag size's relative 1-sigma (the printer's scale tolerance):
+  // what the images cannot see, so it enters the reported sigma of every
+  // length when the scale comes from the tags (no scale bars). 2e-4 is a
+  // print checked with a calliper; an unchecked office print is ~1e-3.
+  double tag_size_sigma_rel = 2e-4;
 
   Status Check() const;
 };
@@ -113,8 +118,12 @@ class Reconstructor {
   std::vector<FrameState*> RegisteredFrames();
   void AdjustFirstAndRetry(std::vector<FrameState*>* registered);
   void AdjustFinally(const std::vector<FrameState*>& registered, ReconstructionResult* result);
+  // The scale from targets.scale_bars (or the tags' print tolerance without them).
+  void ApplyScale(std::vector<FrameState*>* registered, ReconstructionResult* result);
   void AdjustWithPoints(const std::vector<FrameState*>& registered, std::vector<FeaturePoint>* points,
                         ReconstructionResult* result);
+  // Every tag seen but not in the map, with why (ReconstructionResult::unmapped_tags).
+  std::map<TagId, std::string> UnmappedTagReasons() const;
   void CollectReprojectionStatistics(const std::vector<FrameState*>& registered, ReconstructionResult* result) const;
   // Pose from the mapped tags it sees, then map new tags and adjust.
   void Register(FrameState& frame, bool adjust, FrameReport* report);
@@ -147,6 +156,7 @@ class Reconstructor {
   // Learned tags' latest run of registered frames in which they were outliers.
   std::map<TagId, std::vector<FrameState*>> outlier_runs_;
   int tags_remapped_ = 0;
+  std::map<TagId, std::string> unmapped_reasons_;  // why a waiting tag was not mapped at Finish
   std::vector<FrameState*> bootstrap_buffer_;
   bool started_ = false;                          // the map exists (known, or bootstrapped)
   std::optional<TagId> anchor_;

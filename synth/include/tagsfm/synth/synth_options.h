@@ -2,6 +2,7 @@
 // What `tagsfm synth` renders: the scene, the camera and its path, the sensor.
 #include <cstdint>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "tagsfm/core/camera_model.h"
@@ -29,6 +30,14 @@ struct SynthOptions {
   // edge to edge (its own outer ring), 2 = one module of paper more (what
   // synth drew before this option; the bundled recordings/).
   double tag_margin = 1.0;
+  // The printer's scale: tags are drawn (and their true corners written)
+  // at tag_size * print_scale while recording.yaml says tag_size, as a
+  // printer that prints 0.5 % too large does (1.005).
+  double print_scale = 1.0;
+  // Scale bars written into recording.yaml: pairs of tag ids, centre to
+  // centre, with the true (printed) distance and scale_bar_sigma_m.
+  std::vector<std::pair<int, int>> scale_bars;
+  double scale_bar_sigma_m = 1e-5;
   double min_distance = 1.5;  // camera to the scene centre, metres
   double max_distance = 3.0;
   double max_azimuth_deg = 0.0;  // views from +-this about the scene's front; 0: 70 (box), 35 (wall)
