@@ -13,9 +13,10 @@ void LiveMapTracker::Add(const FrameReport& report, const std::vector<TagView>& 
   map_.camera_in_world = centre;
   map_.camera_axis_in_world = world_from_cam.rotation * Eigen::Vector3d::UnitZ();
   for (const TagView& view : views) {
-    auto& [sum, count] = sums_[view.id];
-    sum += world_from_cam * view.centre_in_cam;
-    ++count;
+    // Eigen leaves a default-constructed vector uninitialised: start at zero.
+    auto [it, added] = sums_.try_emplace(view.id, Eigen::Vector3d::Zero(), 0);
+    it->second.first += world_from_cam * view.centre_in_cam;
+    ++it->second.second;
   }
   map_.targets.clear();
   for (const auto& [id, entry] : sums_) map_.targets.push_back({id, entry.first / entry.second});
