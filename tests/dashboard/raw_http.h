@@ -53,7 +53,6 @@ inline std::string RawExchange(int port, const std::string& request,
   const int fd = ConnectLocal(port);
   if (fd < 0) return "";
   SendAll(fd, request);
-  ::shutdown(fd, SHUT_WR);
   std::string reply;
   const auto deadline = std::chrono::steady_clock::now() + timeout;
   char buffer[4096];
