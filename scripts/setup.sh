@@ -14,6 +14,8 @@ PACKAGES=(
   libgtest-dev libgmock-dev libbenchmark-dev
   libcli11-dev libyaml-cpp-dev nlohmann-json3-dev libcpp-httplib-dev
   gnuplot-nox
+  libsystemd-dev   # sd_notify: the daemon under systemd (scripts/tagsfm.service)
+  chromium         # the dashboard's browser test (tests/dashboard), headless
 )
 
 missing=()

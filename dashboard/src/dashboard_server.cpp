@@ -10,6 +10,39 @@
 #include "dashboard_page.h"
 
 namespace tagsfm {
+namespace {
+
+// Enough workers that 50 idle connections, a few slow ones and a client that
+// never reads leave threads for the operator's page; the timeouts free a
+// worker held by such a client within seconds. Publish() never waits on a
+// client: it only swaps the status under a lock no socket call is made in.
+constexpr size_t kWorkerThreads = 64;
+constexpr time_t kReadTimeoutS = 3;
+constexpr time_t kWriteTimeoutS = 2;
+constexpr size_t kMaxRequestBodyBytes = 4096;  // the dashboard takes no uploads
+
+// The page is the only document; it may talk to this server and nothing else.
+void SetSafetyHeaders(httplib::Response& res) {
+  res.set_header("Content-Security-Policy",
+                 "default-src 'none'; script-src 'unsafe-inline'; style-src 'unsafe-inline'; connect-src 'self'");
+  res.set_header("X-Content-Type-Options", "nosniff");
+  res.set_header("Cache-Control", "no-store");
+}
+
+void Harden(httplib::Server& server) {
+  server.new_task_queue = [] { return new httplib::ThreadPool(kWorkerThreads); };
+  server.set_read_timeout(kReadTimeoutS, 0);
+  server.set_write_timeout(kWriteTimeoutS, 0);
+  server.set_payload_max_length(kMaxRequestBodyBytes);
+  // Only the three GET paths exist: anything else (another file, "/../",
+  // another method) gets httplib's 404, or 400 for what is not HTTP.
+  server.set_error_handler([](const httplib::Request&, httplib::Response& res) {
+    SetSafetyHeaders(res);
+    res.set_content(res.status == 404 ? "not found\n" : "bad request\n", "text/plain");
+  });
+}
+
+}  // namespace
 
 struct DashboardServer::State {
   httplib::Server server;
@@ -49,27 +82,31 @@ Result<std::unique_ptr<DashboardServer>> DashboardServer::Start(const std::strin
     int yes = 1;
     setsockopt(sock, SOL_SOCKET, SO_REUSEADDR, reinterpret_cast<const void*>(&yes), sizeof yes);
   });
+  Harden(s->server);
   s->server.Get("/", [](const httplib::Request&, httplib::Response& res) {
+    SetSafetyHeaders(res);
     res.set_content(kDashboardPage, "text/html; charset=utf-8");
   });
   s->server.Get("/status", [s](const httplib::Request&, httplib::Response& res) {
+    SetSafetyHeaders(res);
     std::lock_guard<std::mutex> lock(s->mutex);
-    res.set_header("Cache-Control", "no-store");
     res.set_content(s->status, "application/json");
   });
   s->server.Get("/events", [s](const httplib::Request&, httplib::Response& res) {
-    res.set_header("Cache-Control", "no-store");
+    SetSafetyHeaders(res);
     auto last_sent = std::make_shared<std::uint64_t>(0);
     res.set_chunked_content_provider("text/event-stream", [s, last_sent](size_t, httplib::DataSink& sink) {
       std::unique_lock<std::mutex> lock(s->mutex);
       // Wake at least once a second so a stopped server or a gone client
       // ends the stream promptly.
       s->changed.wait_for(lock, std::chrono::seconds(1), [&] { return s->stopping || s->version != *last_sent; });
-      if (s->stopping) {
+      if (s->version == *last_sent) {
+        if (!s->stopping) return sink.is_writable();
         sink.done();
         return false;
       }
-      if (s->version == *last_sent) return sink.is_writable();
+      // The latest status only: a client slower than the frames skips some.
+      // On stopping, the last one still goes out, so a page ends on the final state.
       const std::string event = "data: " + s->status + "\n\n";
       *last_sent = s->version;
       lock.unlock();

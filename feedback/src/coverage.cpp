@@ -46,6 +46,7 @@ std::vector<TagView> ComputeTagViews(const CameraModel& camera, const TargetConf
     view.distance_m = camera_in_tag.norm();
     if (!(view.distance_m > 0)) continue;
     view.camera_direction_in_tag = camera_in_tag / view.distance_m;
+    view.centre_in_cam = candidates.front().translation;
     // The tag's normal is its z axis; the camera sits on the side it faces,
     // whichever sign libapriltag's frame gives that side.
     view.tilt_deg = std::acos(std::min(1.0, std::abs(view.camera_direction_in_tag.z()))) * kRadToDeg;

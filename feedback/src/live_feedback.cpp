@@ -46,6 +46,9 @@ Status LiveFeedbackOptions::Check() const {
 LiveFeedback::LiveFeedback(CameraModel camera, TargetConfig targets, LiveFeedbackOptions options)
     : camera_(std::move(camera)), targets_(std::move(targets)), options_(options) {
   status_.image_noise_px = 0.3;  // a typical corner noise until a frame measures it
+  status_.point_error_goal_m = options_.point_error_goal_m;
+  status_.min_views_per_target = options_.min_views_per_target;
+  status_.min_direction_spread_deg = options_.min_direction_spread_deg;
 }
 
 const LiveStatus& LiveFeedback::Update(const DetectionSet& detections, const FrameReport& report,
@@ -76,6 +79,8 @@ const LiveStatus& LiveFeedback::Update(const DetectionSet& detections, const Fra
   }
   const std::vector<TagView> views = ComputeTagViews(camera_, targets_, detections);
   coverage_.Add(detections.frame, views);
+  map_.Add(report, views);
+  status_.map = map_.map();
   status_.coverage.clear();
   for (const auto& [id, c] : coverage_.targets()) status_.coverage.push_back(c);
   status_.targets_seen_total = static_cast<int>(status_.coverage.size());

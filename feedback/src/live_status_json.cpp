@@ -1,8 +1,33 @@
+#include <cmath>
+
 #include <nlohmann/json.hpp>
 
 #include "tagsfm/feedback/live_feedback.h"
 
 namespace tagsfm {
+namespace {
+
+// A tenth of a millimetre is finer than any screen shows and keeps each
+// status a few kilobytes (the page gets up to 30 a second).
+nlohmann::json Xyz(const Eigen::Vector3d& p) {
+  const auto r = [](double v) { return std::round(v * 1e4) / 1e4; };
+  return nlohmann::json::array({r(p.x()), r(p.y()), r(p.z())});
+}
+
+nlohmann::json LiveMapJson(const LiveMap& map) {
+  nlohmann::json j;
+  j["targets"] = nlohmann::json::array();
+  for (const auto& t : map.targets) j["targets"].push_back({{"id", t.id}, {"xyz", Xyz(t.centre_in_world)}});
+  j["camera"] = map.camera_in_world ? Xyz(*map.camera_in_world) : nlohmann::json(nullptr);
+  j["camera_axis"] = map.camera_axis_in_world ? Xyz(*map.camera_axis_in_world) : nlohmann::json(nullptr);
+  j["path"] = nlohmann::json::array();
+  for (const auto& p : map.camera_path) j["path"].push_back(Xyz(p));
+  j["top_x"] = Xyz(map.top_x);
+  j["top_y"] = Xyz(map.top_y);
+  return j;
+}
+
+}  // namespace
 
 std::string LiveStatusJson(const LiveStatus& s) {
   nlohmann::json j;
@@ -32,6 +57,10 @@ std::string LiveStatusJson(const LiveStatus& s) {
                         {"last_distance_m", c.last_distance_m}});
   }
   j["coverage"] = coverage;
+  j["map"] = LiveMapJson(s.map);
+  j["goals"] = {{"point_error_m", s.point_error_goal_m},
+                {"min_views_per_target", s.min_views_per_target},
+                {"min_direction_spread_deg", s.min_direction_spread_deg}};
   nlohmann::json warnings = nlohmann::json::array();
   for (const auto& w : s.warnings) warnings.push_back(w.text);
   j["warnings"] = warnings;

@@ -1,7 +1,15 @@
-// The live daemon end to end, with a recording played as its camera.
+// The live daemon end to end, with a recording played as its camera: what it
+// records and reconstructs, its config check, and what it tells systemd.
+#include <poll.h>
+#include <sys/socket.h>
+#include <sys/un.h>
+#include <unistd.h>
+
 #include <algorithm>
+#include <chrono>
 #include <cstdlib>
 #include <fstream>
+#include <future>
 #include <sstream>
 
 #include <gtest/gtest.h>
@@ -94,6 +102,138 @@ TEST(RunDaemon, ABadConfigIsAOneLineErrorNamingTheField) {
                         << (tmp.path() / "rec").string() << "\n  tag_search: sometimes\n";
   EXPECT_NE(RunCommand(testing::TagsfmExe().string() + " run --config " + config.string(), tmp.path() / "log"), 0);
   EXPECT_NE(ReadText(tmp.path() / "log").find("run.tag_search"), std::string::npos) << ReadText(tmp.path() / "log");
+}
+
+// Every example in firmware_config/ is a valid config.
+TEST(RunCheckConfig, EveryExampleIsValid) {
+  const auto dir = testing::RecordingsDir() / ".." / "firmware_config";
+  TempDir tmp;
+  int examples = 0;
+  for (const auto& entry : std::filesystem::directory_iterator(dir)) {
+    if (entry.path().extension() != ".yaml") continue;
+    ++examples;
+    const int code = RunCommand(testing::TagsfmExe().string() + " run --check-config " + entry.path().string(),
+                                tmp.path() / "log");
+    const std::string log = ReadText(tmp.path() / "log");
+    EXPECT_EQ(code, 0) << log;
+    EXPECT_NE(log.find(": valid ("), std::string::npos) << log;
+  }
+  EXPECT_GE(examples, 3);  // UVC MJPG, libcamera, global-shutter GREY
+}
+
+// A config with an error in every block gets every error, each naming its field.
+TEST(RunCheckConfig, NamesTheFieldOfEveryError) {
+  TempDir tmp;
+  const auto config = tmp.path() / "rig.yaml";
+  std::ofstream(config) << "capture:\n  source: v4l2:/dev/video0\n  fps: -5\n  buffers: 99\n  exposure_us: 1000\n"
+                        << "targets:\n  family: tag36h11\n  size_m: -0.06\n"
+                        << "run:\n  record_dir: " << (tmp.path() / "rec").string() << "\n  dashboard: localhost\n  max_queue_frames: zero\n  record_dr: x\n"
+                        << "pipeline:\n  recon:\n    ba:\n      huber_px: -1\n  feedback:\n    min_targets_in_view: 0\n"
+                        << "extras: 1\n";
+  EXPECT_EQ(RunCommand(testing::TagsfmExe().string() + " run --check-config " + config.string(), tmp.path() / "log"), 2);
+  const std::string log = ReadText(tmp.path() / "log");
+  for (const char* field : {"capture.fps", "capture.buffers", "targets.size_m", "run.dashboard", "run.max_queue_frames",
+                            "run.record_dr", "pipeline.recon.ba.huber_px", "feedback.min_targets_in_view", "extras:"}) {
+    EXPECT_NE(log.find(config.string() + ": "), std::string::npos) << log;
+    EXPECT_NE(log.find(field), std::string::npos) << field << " not named in:\n" << log;
+  }
+  EXPECT_NE(log.find("9 errors"), std::string::npos) << log;
+  EXPECT_FALSE(std::filesystem::exists(tmp.path() / "rec"));  // a check records nothing
+}
+
+// A unix datagram socket standing in for systemd's NOTIFY_SOCKET; each
+// message with the time it came.
+class NotifySocket {
+ public:
+  explicit NotifySocket(const std::filesystem::path& path) : path_(path) {
+    fd_ = ::socket(AF_UNIX, SOCK_DGRAM | SOCK_CLOEXEC, 0);
+    sockaddr_un addr{};
+    addr.sun_family = AF_UNIX;
+    std::snprintf(addr.sun_path, sizeof addr.sun_path, "%s", path.c_str());
+    bound_ = ::bind(fd_, reinterpret_cast<sockaddr*>(&addr), sizeof addr) == 0;
+  }
+  ~NotifySocket() {
+    ::close(fd_);
+    std::filesystem::remove(path_);
+  }
+  bool bound() const { return bound_; }
+  // Messages until `done` is ready and a quiet half second passed.
+  std::vector<std::pair<double, std::string>> Collect(std::future<int>& done) {
+    std::vector<std::pair<double, std::string>> messages;
+    const auto start = std::chrono::steady_clock::now();
+    for (;;) {
+      pollfd p{fd_, POLLIN, 0};
+      if (::poll(&p, 1, 500) <= 0) {
+        if (done.wait_for(std::chrono::seconds(0)) == std::future_status::ready) return messages;
+        continue;
+      }
+      char buffer[4096];
+      const ssize_t n = ::recv(fd_, buffer, sizeof buffer, 0);
+      if (n <= 0) continue;
+      messages.emplace_back(std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(),
+                            std::string(buffer, static_cast<size_t>(n)));
+    }
+  }
+
+ private:
+  std::filesystem::path path_;
+  int fd_ = -1;
+  bool bound_ = false;
+};
+
+TEST(RunDaemonSystemd, SendsReadyWatchdogAndOneLineStatus) {
+  // The executable links sd_notify only when built with libsystemd.
+  if (ReadText(testing::TagsfmExe()).find("sd_notify") == std::string::npos) {
+    GTEST_SKIP() << "tagsfm was built without libsystemd (apt-get install libsystemd-dev): no sd_notify to test";
+  }
+  const auto source = testing::RecordingsDir() / "box_small";
+  if (!std::filesystem::exists(source)) GTEST_SKIP() << "recordings/box_small is missing";
+  TempDir tmp;
+  NotifySocket socket(tmp.path() / "notify.sock");
+  ASSERT_TRUE(socket.bound());
+  const auto config = tmp.path() / "run.yaml";
+  std::ofstream(config) << "capture:\n  source: file:" << source.string() << "?rate=realtime\n  exposure_us: 1000\n"
+                        << "run:\n  record_dir: " << (tmp.path() / "live").string() << "\n  dashboard: 127.0.0.1:0\n";
+  // WATCHDOG_USEC as systemd sets it for WatchdogSec=0.9 s: pings every 0.3 s.
+  constexpr double kWatchdogS = 0.9;
+  auto run = std::async(std::launch::async, [&] {
+    return RunCommand("NOTIFY_SOCKET=" + (tmp.path() / "notify.sock").string() + " WATCHDOG_USEC=900000 " +
+                          testing::TagsfmExe().string() + " run --config " + config.string(),
+                      tmp.path() / "run.log");
+  });
+  const auto messages = socket.Collect(run);
+  ASSERT_EQ(run.get(), 0) << ReadText(tmp.path() / "run.log");
+
+  std::vector<double> pings;
+  double ready_at = -1, stopping_at = -1;
+  int statuses = 0;
+  for (const auto& [at, text] : messages) {
+    std::istringstream lines(text);
+    for (std::string line; std::getline(lines, line);) {
+      if (line == "READY=1") ready_at = at;
+      if (line == "WATCHDOG=1") pings.push_back(at);
+      if (line == "STOPPING=1") stopping_at = at;
+      if (line.rfind("STATUS=", 0) == 0) {
+        ++statuses;
+        EXPECT_GT(line.size(), 10u) << line;  // says something
+      }
+    }
+    // Each message is VAR=VALUE lines, a STATUS= value without a line break inside.
+    for (size_t at_line = 0; at_line < text.size();) {
+      const size_t end = std::min(text.find('\n', at_line), text.size());
+      EXPECT_NE(text.substr(at_line, end - at_line).find('='), std::string::npos) << text;
+      at_line = end + 1;
+    }
+  }
+  ASSERT_GE(ready_at, 0) << "no READY=1";
+  ASSERT_GE(stopping_at, ready_at) << "no STOPPING=1 after READY=1";
+  EXPECT_GE(statuses, 2);  // READY's and STOPPING's at least
+  ASSERT_GE(pings.size(), 2u) << "fewer than two WATCHDOG=1";
+  EXPECT_GE(pings.front(), ready_at);  // the watchdog starts with the capture
+  // Pings below half the watchdog period apart, from the first to the end
+  // (the final adjustment included); 0.3 s nominal, 0.45 s allowed.
+  for (size_t i = 1; i < pings.size(); ++i) EXPECT_LT(pings[i] - pings[i - 1], kWatchdogS / 2) << "ping " << i;
+  EXPECT_GT(pings.back(), stopping_at - kWatchdogS / 2);
 }
 
 }  // namespace

@@ -41,6 +41,7 @@ struct TagView {
   double distance_m = 0;          // camera centre to tag centre
   double tilt_deg = 0;
   Eigen::Vector3d camera_direction_in_tag = Eigen::Vector3d::UnitZ();  // unit, tag frame
+  Eigen::Vector3d centre_in_cam = Eigen::Vector3d::Zero();             // the tag's centre, camera frame
 };
 
 // Per-tag geometry of a frame's detections (IPPE on each tag's corners);

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "tagsfm/feedback/coverage.h"
+#include "tagsfm/feedback/live_map.h"
 #include "tagsfm/recon/reconstructor.h"
 
 namespace tagsfm {
@@ -46,6 +47,11 @@ struct LiveStatus {
   std::optional<double> predicted_rotation_error_deg;
   std::optional<double> max_depth_for_goal_m;        // closer than this meets point_error_goal_m
   std::vector<TargetCoverage> coverage;              // every target seen so far, by id
+  LiveMap map;                                       // the dashboard's top view
+  // The goals the warnings use, so that a display can colour by them.
+  double point_error_goal_m = 0;
+  int min_views_per_target = 0;
+  double min_direction_spread_deg = 0;
   std::vector<LiveWarning> warnings;                 // most important first
 };
 
@@ -65,6 +71,7 @@ class LiveFeedback {
   TargetConfig targets_;
   LiveFeedbackOptions options_;
   CoverageTracker coverage_;
+  LiveMapTracker map_;
   LiveStatus status_;
   std::int64_t last_timestamp_ns_ = -1;
   static constexpr size_t kNoiseWindow = 15;
