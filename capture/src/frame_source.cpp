@@ -3,7 +3,7 @@
 namespace tagsfm {
 
 Result<std::unique_ptr<FrameSource>> OpenFileFrameSource(const std::string& uri, const std::string& spec);
-Result<std::unique_ptr<FrameSource>> OpenV4l2FrameSource(const std::string& device, const CaptureSettings& settings);
+Result<std::unique_ptr<FrameSource>> OpenV4l2FrameSource(const std::string& path, const CaptureSettings& settings);
 
 Result<std::unique_ptr<FrameSource>> OpenFrameSource(const CaptureSettings& settings) {
   if (Status s = settings.Check(); !s) return s.error();
