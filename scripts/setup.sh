@@ -14,6 +14,7 @@ PACKAGES=(
   libgtest-dev libgmock-dev libbenchmark-dev
   libcli11-dev libyaml-cpp-dev nlohmann-json3-dev libcpp-httplib-dev
   gnuplot-nox
+  qemu-system-x86 busybox-static cpio kmod v4l-utils   # the vivid capture test (scripts/vivid/)
 )
 
 missing=()
