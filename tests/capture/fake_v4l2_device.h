@@ -224,7 +224,7 @@ class FakeV4l2Device : public V4l2Device {
     std::vector<std::uint8_t> bytes = c_->frame_bytes ? c_->frame_bytes(c_->delivered) : std::vector<std::uint8_t>();
     ++c_->delivered;
     auto& target = c_->buffers[index];
-    std::memcpy(target.data(), bytes.data(), std::min(bytes.size(), target.size()));
+    if (!bytes.empty()) std::memcpy(target.data(), bytes.data(), std::min(bytes.size(), target.size()));
     buffer->bytesused = static_cast<unsigned>(std::min(bytes.size(), target.size()));
     return 0;
   }
