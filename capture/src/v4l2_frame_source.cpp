@@ -221,6 +221,10 @@ class V4l2FrameSource : public FrameSource {
       const size_t used = buffer.bytesused > 0 ? buffer.bytesused : buffers_[buffer.index].length;
       pixels = DecodePixels(layout_, static_cast<const std::uint8_t*>(buffers_[buffer.index].start), used, settings_.colour);
     }
+    // QBUF writes the buffer struct back (the kernel clears its timestamp):
+    // take what the frame needs from it first.
+    const std::int64_t timestamp_ns = static_cast<std::int64_t>(buffer.timestamp.tv_sec) * 1'000'000'000 +
+                                      static_cast<std::int64_t>(buffer.timestamp.tv_usec) * 1000;
     if (const int error = device_->Ioctl(VIDIOC_QBUF, &buffer); error != 0) {
       if (Status back = AwaitReturn(error); !back) return back.error();
     }
@@ -231,8 +235,7 @@ class V4l2FrameSource : public FrameSource {
     }
     Frame frame;
     frame.index = next_index_++;
-    frame.timestamp_ns = static_cast<std::int64_t>(buffer.timestamp.tv_sec) * 1'000'000'000 +
-                         static_cast<std::int64_t>(buffer.timestamp.tv_usec) * 1000;
+    frame.timestamp_ns = timestamp_ns;
     frame.image = std::move(pixels->image);
     frame.gray = std::move(pixels->gray);
     frame.source = uri();

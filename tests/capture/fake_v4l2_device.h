@@ -127,7 +127,16 @@ class FakeV4l2Device : public V4l2Device {
         buffer->m.offset = buffer->index * kOffsetStep;
         return 0;
       }
-      case VIDIOC_QBUF: return Queue(static_cast<v4l2_buffer*>(arg)->index);
+      case VIDIOC_QBUF: {
+        // As videobuf2 does, QBUF writes the struct back with what a queued
+        // capture buffer has: no timestamp, no data, no sequence.
+        auto* buffer = static_cast<v4l2_buffer*>(arg);
+        const int error = Queue(buffer->index);
+        buffer->timestamp = {};
+        buffer->bytesused = 0;
+        buffer->sequence = 0;
+        return error;
+      }
       case VIDIOC_DQBUF: return Dequeue(static_cast<v4l2_buffer*>(arg));
       case VIDIOC_STREAMON: ++c_->stream_ons; c_->streaming = true; return 0;
       case VIDIOC_STREAMOFF: ++c_->stream_offs; c_->streaming = false; c_->queued.clear(); return 0;
