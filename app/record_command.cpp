@@ -38,6 +38,7 @@ int RunRecord(const RecordArgs& args) {
     spdlog::error("{}", source.error().message);
     return 1;
   }
+  for (const auto& warning : (*source)->TakeWarnings()) spdlog::warn("{}", warning);  // controls, format: before capture
   // A recording keeps what its source knows (a replayed recording's camera
   // and targets); a camera's targets come from the command line.
   RecordingInfo info = (*source)->info();

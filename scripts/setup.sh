@@ -16,6 +16,7 @@ PACKAGES=(
   gnuplot-nox
   libsystemd-dev   # sd_notify: the daemon under systemd (scripts/tagsfm.service)
   chromium         # the dashboard's browser test (tests/dashboard), headless
+  qemu-system-x86 busybox-static cpio kmod v4l-utils   # the vivid capture test (scripts/vivid/)
 )
 
 missing=()

@@ -2,6 +2,7 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include "tagsfm/capture/pixel_decode.h"
 #include "tagsfm/capture/yaml_file.h"
 
 namespace tagsfm {
@@ -14,6 +15,12 @@ Status CaptureSettings::Check() const {
   if (gain < -1) return MakeError("capture.gain must be >= 0, or -1 to leave it");
   if (focus_absolute < -1) return MakeError("capture.focus_absolute must be >= 0, or -1 to leave it");
   if (buffers < 2 || buffers > 32) return MakeError("capture.buffers must be in 2..32 (got " + std::to_string(buffers) + ")");
+  if (!pixel_format.empty() && !CanDecodePixelFormat(FourCc(pixel_format))) {
+    return MakeError("capture.pixel_format must be one of GREY, YUYV, UYVY, MJPG, BGR3, RGB3 (got '" + pixel_format + "')");
+  }
+  if (!(reconnect_wait_s >= 0) || reconnect_wait_s > 3600) {
+    return MakeError("capture.reconnect_wait_s must be in [0, 3600] seconds (got " + std::to_string(reconnect_wait_s) + ")");
+  }
   return Status::Ok();
 }
 
@@ -46,6 +53,13 @@ Result<CaptureSettings> ReadCaptureSettings(const std::filesystem::path& yaml_pa
   if (s) s = ReadYamlField(node, "autofocus", where, &settings.autofocus);
   if (s) s = ReadYamlField(node, "focus_absolute", where, &settings.focus_absolute);
   if (s) s = ReadYamlField(node, "buffers", where, &settings.buffers);
+  if (s) s = ReadYamlField(node, "pixel_format", where, &settings.pixel_format);
+  if (s) s = ReadYamlField(node, "reconnect_wait_s", where, &settings.reconnect_wait_s);
+  if (s && node["brightness"]) {
+    int brightness = 0;
+    s = ReadYamlField(node, "brightness", where, &brightness);
+    settings.brightness = brightness;
+  }
   if (!s) return s.error();
   if (Status check = settings.Check(); !check) return MakeError(file + ": " + check.error().message);
   return settings;

@@ -3,7 +3,8 @@
 namespace tagsfm {
 
 Result<std::unique_ptr<FrameSource>> OpenFileFrameSource(const std::string& uri, const std::string& spec);
-Result<std::unique_ptr<FrameSource>> OpenV4l2FrameSource(const std::string& device, const CaptureSettings& settings);
+Result<std::unique_ptr<FrameSource>> OpenV4l2FrameSource(const std::string& path, const CaptureSettings& settings);
+Result<std::unique_ptr<FrameSource>> OpenLibcameraFrameSource(const std::string& spec, const CaptureSettings& settings);
 
 Result<std::unique_ptr<FrameSource>> OpenFrameSource(const CaptureSettings& settings) {
   if (Status s = settings.Check(); !s) return s.error();
@@ -13,11 +14,8 @@ Result<std::unique_ptr<FrameSource>> OpenFrameSource(const CaptureSettings& sett
   const std::string spec = uri.substr(colon + 1);
   if (scheme == "file") return OpenFileFrameSource(uri, spec);
   if (scheme == "v4l2") return OpenV4l2FrameSource(spec, settings);
-  if (scheme == "libcamera") {
-    return MakeError("camera source '" + uri +
-                     "': libcamera cameras are not supported yet; many expose a V4L2 node too (try v4l2:/dev/videoN)");
-  }
-  return MakeError("camera source '" + uri + "': unknown scheme '" + scheme + "' (known: file, v4l2)");
+  if (scheme == "libcamera") return OpenLibcameraFrameSource(spec, settings);
+  return MakeError("camera source '" + uri + "': unknown scheme '" + scheme + "' (known: file, v4l2, libcamera)");
 }
 
 Result<std::unique_ptr<FrameSource>> OpenFrameSource(const std::string& uri) {

@@ -5,6 +5,7 @@
 // exposure (auto exposure changes motion blur and noise); Check() enforces
 // what is wrong, Warnings() says what is risky.
 #include <filesystem>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -23,6 +24,12 @@ struct CaptureSettings {
   bool autofocus = false;     // off: refocusing would change the intrinsics mid-capture
   int focus_absolute = -1;    // -1: leave as is
   int buffers = 4;            // V4L2 driver buffers
+  std::string pixel_format;   // V4L2 FourCC (GREY, YUYV, UYVY, MJPG, BGR3, RGB3); empty: the best the camera offers
+  std::optional<int> brightness;  // absent: leave as is (ranges differ by camera, some go below 0)
+  // A camera that vanishes mid-capture (unplugged, driver reset): 0 ends the
+  // capture at once with an error; > 0 waits up to this long for it to come
+  // back and goes on (the frames in between are lost, the recording is not).
+  double reconnect_wait_s = 0.0;
 
   Status Check() const;
   std::vector<std::string> Warnings() const;

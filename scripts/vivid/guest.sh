@@ -1,0 +1,83 @@
+#!/bin/busybox sh
+# Runs inside the vivid guest (see run_vivid.sh), with the host's root at
+# /host: records from vivid's /dev/video0 with the host's tagsfm in each
+# pixel format, then unplugs the camera (vivid's Disconnect control) in the
+# middle of a recording. Everything lands in RESULTS for the host to check.
+BUILD=$1
+RESULTS=$2
+R=/host$RESULTS
+run() { chroot /host "$@"; }
+FRAMES=${TAGSFM_VIVID_FRAMES:-45}
+
+run v4l2-ctl -d /dev/video0 --all > "$R/v4l2-ctl-all.txt" 2>&1
+run v4l2-ctl -d /dev/video0 --list-formats-ext > "$R/formats.txt" 2>&1
+run v4l2-ctl -d /dev/video0 --list-ctrls > "$R/controls.txt" 2>&1
+
+record() {  # NAME FORMAT BRIGHTNESS RECONNECT_WAIT_S [extra record arguments]
+  name=$1 format=$2 brightness=$3 reconnect=$4
+  shift 4
+  cat > "$R/$name.yaml" <<EOF
+capture:
+  source: v4l2:/dev/video0
+  width: 640
+  height: 360
+  fps: 30
+  pixel_format: $format
+  brightness: $brightness
+  gain: 40
+  exposure_us: 5000
+  reconnect_wait_s: $reconnect
+EOF
+  start=$(date +%s)
+  run "$BUILD/tagsfm" record --config "$RESULTS/$name.yaml" --out "$RESULTS/$name" --tag-size 0.05 "$@" \
+    > "$R/$name.out" 2> "$R/$name.err"
+  echo $? > "$R/$name.rc"
+  echo $(( $(date +%s) - start )) > "$R/$name.seconds"
+  run v4l2-ctl -d /dev/video0 -C brightness > "$R/$name.brightness" 2>&1
+}
+
+wait_for_frames() {  # NAME COUNT: until the recording has COUNT frames (at most 20 s)
+  i=0
+  while [ $i -lt 100 ] && [ "$(ls "$R/$1/frames" 2>/dev/null | wc -l)" -lt "$2" ]; do sleep 0.2; i=$((i + 1)); done
+}
+
+record grey GREY 200 0 --frames "$FRAMES"
+record yuyv YUYV 60 0 --frames "$FRAMES"
+
+# libcamera's camera manager under this kernel: its UVC, vimc and simple
+# pipeline handlers do not take vivid, so it must say there is no camera 0.
+run env LIBCAMERA_LOG_LEVELS='*:ERROR' "$BUILD/tagsfm" record --source libcamera:0 --out "$RESULTS/libcamera" \
+  --tag-size 0.05 --frames 5 > "$R/libcamera.out" 2> "$R/libcamera.err"
+echo $? > "$R/libcamera.rc"
+
+# Unplugged mid-capture (vivid's Disconnect control unregisters the device):
+# the recording so far stays, one line says so.
+unplug() {  # vivid's Disconnect control; if frames still come, unbind the driver through sysfs
+  run v4l2-ctl -d /dev/video0 --set-ctrl=disconnect=1 >> "$R/disconnect.txt" 2>&1
+  before=$(ls "$R/$1/frames" | wc -l)
+  sleep 3
+  if [ "$(ls "$R/$1/frames" | wc -l)" -gt $((before + 2)) ]; then
+    echo "disconnect control did not stop the stream: unbinding vivid.0" >> "$R/disconnect.txt"
+    echo vivid.0 > /sys/bus/platform/drivers/vivid/unbind
+  fi
+}
+
+# Capped at 300 frames so that a driver that never goes away cannot hang the test.
+record unplug GREY 128 0 --frames 300 &
+pid=$!
+wait_for_frames unplug 10
+unplug unplug
+wait $pid
+
+# Unplugged and plugged back (the driver reloaded) with capture.reconnect_wait_s:
+# the recording goes on after the gap.
+rmmod vivid && insmod /modules/*-vivid.ko
+for i in 1 2 3 4 5 6 7 8 9 10; do [ -e /dev/video0 ] && break; sleep 0.2; done
+record replug GREY 128 60 --frames 40 &
+pid=$!
+wait_for_frames replug 10
+unplug replug
+rmmod vivid
+insmod /modules/*-vivid.ko
+wait $pid
+exit 0

@@ -1,0 +1,157 @@
+// `tagsfm record` against the kernel's vivid driver in a qemu guest
+// (scripts/vivid/run_vivid.sh), checked here on the host: the formats asked
+// for, frame count and rate, driver timestamps, a control applied, and an
+// unplug mid-capture. Slow (a TCG guest): about 1-2 minutes.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include <opencv2/core.hpp>
+
+#include "tagsfm/capture/recording.h"
+
+namespace tagsfm {
+namespace {
+
+namespace fs = std::filesystem;
+
+constexpr size_t kFrames = 45;  // guest.sh's default
+
+std::string ReadText(const fs::path& file) {
+  std::ifstream in(file);
+  std::stringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+std::string LastLine(const std::string& text) {
+  std::string line, last;
+  std::istringstream lines(text);
+  while (std::getline(lines, line)) {
+    if (!line.empty()) last = line;
+  }
+  return last;
+}
+
+struct Recorded {
+  size_t frames = 0;
+  double driver_fps = 0;     // the driver's frame clock, from its timestamps
+  double delivered_fps = 0;  // frames recorded per second (lower when frames were dropped)
+  double mean_grey = 0;      // of the first frame
+};
+
+constexpr double kPeriodNs = 1e9 / 30.0;
+
+// Checks what every recording from the driver must satisfy, and measures it.
+// `one_clock`: the driver was not reloaded during the recording.
+Recorded CheckRecording(const fs::path& dir, bool one_clock = true) {
+  Recorded out;
+  auto reader = RecordingReader::Open(dir);
+  EXPECT_TRUE(reader) << (reader ? "" : reader.error().message);
+  if (!reader) return out;
+  const auto& entries = reader->entries();
+  out.frames = entries.size();
+  for (size_t i = 1; i < entries.size(); ++i) {
+    EXPECT_GT(entries[i].timestamp_ns, entries[i - 1].timestamp_ns) << dir << " frame " << i << ": timestamps must increase";
+  }
+  // vivid ticks at 30 fps; when no buffer is queued at a tick (the recorder
+  // is writing a frame) that frame is dropped, so an interval spans a whole
+  // number of periods, give or take the jitter of a TCG guest's timer (up to
+  // ~10 ms seen): the count of periods over the span gives the driver's rate.
+  double periods = 0;
+  for (size_t i = 1; i < entries.size(); ++i) {
+    const double dt = static_cast<double>(entries[i].timestamp_ns - entries[i - 1].timestamp_ns);
+    periods += std::max(1.0, std::round(dt / kPeriodNs));
+  }
+  (void)one_clock;
+  if (entries.size() > 1) {
+    const double span = static_cast<double>(entries.back().timestamp_ns - entries.front().timestamp_ns);
+    out.driver_fps = periods * 1e9 / span;
+    out.delivered_fps = static_cast<double>(entries.size() - 1) * 1e9 / span;
+  }
+  for (size_t i = 0; i < entries.size(); i += std::max<size_t>(1, entries.size() / 5)) {
+    auto frame = reader->LoadFrame(i);
+    EXPECT_TRUE(frame) << dir << " frame " << i;
+    if (!frame) continue;
+    EXPECT_EQ(frame->image.size(), cv::Size(640, 360)) << dir;
+    EXPECT_EQ(frame->image.channels(), 1) << dir << ": grey frames asked for";
+    if (i == 0) out.mean_grey = cv::mean(frame->image)[0];
+  }
+  return out;
+}
+
+TEST(VividCaptureSlow, RecordsFromTheKernelDriverAndKeepsTheRecordingWhenUnplugged) {
+  const fs::path build = fs::path(TAGSFM_EXE).parent_path();
+  const fs::path script = fs::path(TAGSFM_RECORDINGS_DIR).parent_path() / "scripts/vivid/run_vivid.sh";
+  const fs::path results = build / "vivid/results";
+  fs::remove_all(results);
+  fs::create_directories(results);
+  const std::string command = "bash '" + script.string() + "' '" + build.string() + "' '" + results.string() + "' > '" +
+                              (results / "run.log").string() + "' 2>&1";
+  const int status = std::system(command.c_str());
+  const std::string log = ReadText(results / "run.log");
+  if (WIFEXITED(status) && WEXITSTATUS(status) == 77) GTEST_SKIP() << LastLine(log);
+  ASSERT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << log;
+
+  EXPECT_NE(ReadText(results / "formats.txt").find("'GREY'"), std::string::npos) << "vivid offers GREY";
+  for (const char* name : {"grey", "yuyv"}) {
+    EXPECT_EQ(ReadText(results / (std::string(name) + ".rc")), "0\n") << name << ": " << ReadText(results / (std::string(name) + ".err"));
+  }
+  const Recorded grey = CheckRecording(results / "grey");
+  const Recorded yuyv = CheckRecording(results / "yuyv");
+  EXPECT_EQ(grey.frames, kFrames);
+  EXPECT_EQ(yuyv.frames, kFrames);
+  // vivid runs at the rate asked for (capture.fps 30).
+  EXPECT_NEAR(grey.driver_fps, 30.0, 1.5);
+  EXPECT_NEAR(yuyv.driver_fps, 30.0, 1.5);
+  // capture.brightness reached the driver: it says so, and its test pattern
+  // is brighter at 200 than at 60.
+  EXPECT_NE(ReadText(results / "grey.brightness").find("brightness: 200"), std::string::npos);
+  EXPECT_NE(ReadText(results / "yuyv.brightness").find("brightness: 60"), std::string::npos);
+  EXPECT_GT(grey.mean_grey, yuyv.mean_grey + 40) << grey.mean_grey << " vs " << yuyv.mean_grey;
+
+  // Unplugged mid-capture: exit 1, one error line naming the device and the
+  // last frame, every frame before it on disk.
+  EXPECT_EQ(ReadText(results / "unplug.rc"), "1\n");
+  const Recorded unplug = CheckRecording(results / "unplug");
+  EXPECT_GE(unplug.frames, 10u);
+  const std::string err = ReadText(results / "unplug.err");
+  const std::string error_line = LastLine(err);
+  EXPECT_NE(error_line.find("v4l2:/dev/video0: camera lost after frame " + std::to_string(unplug.frames - 1)), std::string::npos)
+      << err;
+  EXPECT_NE(error_line.find(std::to_string(unplug.frames) + " frames kept in"), std::string::npos) << err;
+  // libcamera runs under this kernel and finds no camera it handles.
+  EXPECT_EQ(ReadText(results / "libcamera.rc"), "1\n");
+  EXPECT_NE(ReadText(results / "libcamera.err").find("libcamera:0: no such camera (libcamera sees 0)"), std::string::npos)
+      << ReadText(results / "libcamera.err");
+
+  // Controls vivid lacks are said once each.
+  const std::string grey_err = ReadText(results / "grey.err");
+  for (const char* warning : {"has no absolute exposure control: capture.exposure_us is ignored",
+                              "has no autofocus control (fixed focus?)"}) {
+    const size_t at = grey_err.find(warning);
+    EXPECT_NE(at, std::string::npos) << warning << "\n" << grey_err;
+    EXPECT_EQ(grey_err.find(warning, at + 1), std::string::npos) << warning << "\n" << grey_err;
+  }
+
+  // Unplugged and back (vivid reloaded) with capture.reconnect_wait_s: the
+  // recording goes on to the frame count asked for.
+  EXPECT_EQ(ReadText(results / "replug.rc"), "0\n") << ReadText(results / "replug.err");
+  const Recorded replug = CheckRecording(results / "replug", /*one_clock=*/false);
+  EXPECT_EQ(replug.frames, 40u);
+  EXPECT_NE(ReadText(results / "replug.err").find("it came back after"), std::string::npos) << ReadText(results / "replug.err");
+
+  std::printf("vivid: grey %zu frames, %.2f fps recorded of the driver's %.2f; yuyv %zu, %.2f of %.2f; "
+              "unplugged after %zu frames; record took %s s and %s s in the guest\n",
+              grey.frames, grey.delivered_fps, grey.driver_fps, yuyv.frames, yuyv.delivered_fps, yuyv.driver_fps,
+              unplug.frames, LastLine(ReadText(results / "grey.seconds")).c_str(),
+              LastLine(ReadText(results / "yuyv.seconds")).c_str());
+}
+
+}  // namespace
+}  // namespace tagsfm
