@@ -14,6 +14,7 @@ PACKAGES=(
   libgtest-dev libgmock-dev libbenchmark-dev
   libcli11-dev libyaml-cpp-dev nlohmann-json3-dev libcpp-httplib-dev
   gnuplot-nox
+  clang libclang-rt-14-dev   # scripts/fuzz.sh: libFuzzer and its sanitizers
 )
 
 missing=()
