@@ -171,7 +171,8 @@ Result<std::vector<Eigen::Vector3d>> ReadPlyPoints(const std::filesystem::path& 
         double value = 0;
         const bool ok = property.count_type.empty() ? body.Read(property.type, &value) : [&] {
           double items = 0;
-          if (!body.Read(property.count_type, &items) || items < 0) return false;
+          // A list count read as float may be NaN or beyond long long; the items run out long before 2^31.
+          if (!body.Read(property.count_type, &items) || !(items >= 0 && items <= 2147483647.0)) return false;
           for (long long k = 0; k < static_cast<long long>(items); ++k) {
             if (!body.Read(property.type, &value)) return false;
           }

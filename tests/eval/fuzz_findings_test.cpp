@@ -41,5 +41,17 @@ TEST(FuzzFindings, PlyClaimingAHugeVertexCountIsAnErrorNotAnAllocation) {
   EXPECT_NE(points.error().message.find(path.string()), std::string::npos) << points.error().message;
 }
 
+TEST(FuzzFindings, PlyListCountOfFloatTypeOutOfRangeIsAnError) {
+  // A list whose count type is float, holding 7e22: the cast of the count
+  // to long long was undefined (UBSan).
+  testing::TempDir tmp;
+  const auto path = tmp.path() / "cloud.ply";
+  std::ofstream(path) << "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\n"
+                         "property float z\nproperty list float int extra\nend_header\n0 0 0 7e22 1 2\n";
+  auto points = ReadPlyPoints(path);
+  ASSERT_FALSE(points.has_value());
+  EXPECT_NE(points.error().message.find("extra"), std::string::npos) << points.error().message;
+}
+
 }  // namespace
 }  // namespace tagsfm::eval
