@@ -17,6 +17,7 @@ PACKAGES=(
   libsystemd-dev   # sd_notify: the daemon under systemd (scripts/tagsfm.service)
   chromium         # the dashboard's browser test (tests/dashboard), headless
   qemu-system-x86 busybox-static cpio kmod v4l-utils   # the vivid capture test (scripts/vivid/)
+  clang libclang-rt-14-dev   # scripts/fuzz.sh: libFuzzer and its sanitizers
 )
 
 missing=()

@@ -2,6 +2,9 @@
 # Set up, build, and run every test.
 #   bash scripts/test.sh               Release build in build/, all tests
 #   bash scripts/test.sh --sanitize    ASan+UBSan build in build-asan/, all but *Slow suites
+#   bash scripts/test.sh --tsan        ThreadSanitizer build in build-tsan/ of the tests whose
+#                                      threads meet: the daemon (run), realtime replay, the
+#                                      frame queue, the dashboard, libapriltag's worker pool
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/setup.sh
@@ -10,6 +13,19 @@ if [ "${1:-}" = "--sanitize" ]; then
   export UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
   BUILD_DIR=build-asan BUILD_TYPE=RelWithDebInfo bash scripts/build.sh -DTAGSFM_SANITIZE=ON -DTAGSFM_BUILD_BENCH=OFF
   ctest --test-dir build-asan --output-on-failure -j"$(nproc)" -E 'Slow\.'
+elif [ "${1:-}" = "--tsan" ]; then
+  # A race reported anywhere (the tests, or the tagsfm they start) fails the run.
+  export TSAN_OPTIONS="halt_on_error=1:second_deadlock_stack=1:suppressions=$PWD/scripts/tsan.supp"
+  launcher=()
+  command -v ccache > /dev/null && launcher=(-DCMAKE_CXX_COMPILER_LAUNCHER=ccache)
+  cmake -S . -B build-tsan -DCMAKE_BUILD_TYPE=RelWithDebInfo -DTAGSFM_BUILD_BENCH=OFF "${launcher[@]}" \
+    -DCMAKE_CXX_FLAGS="-fsanitize=thread" -DCMAKE_C_FLAGS="-fsanitize=thread" \
+    -DCMAKE_EXE_LINKER_FLAGS="-fsanitize=thread" > build-tsan.configure.log 2>&1 \
+    || { cat build-tsan.configure.log; exit 1; }
+  cmake --build build-tsan -j"$(nproc)" --target tagsfm tagsfm_app_tests tagsfm_pipeline_tests \
+    tagsfm_dashboard_tests tagsfm_detect_tests
+  ctest --test-dir build-tsan --output-on-failure -j"$(nproc)" \
+    -R '^(RunDaemon|ReplayRealtime|FrameQueue|DashboardServer|AprilTagWorkerPool)\.'
 else
   bash scripts/build.sh
   ctest --test-dir build --output-on-failure -j"$(nproc)"

@@ -59,7 +59,7 @@ Result<RecordingReader> RecordingReader::Open(const std::filesystem::path& dir) 
     const std::string where = csv.string() + ":" + std::to_string(line_number) + ": ";
     if (line.find_first_not_of(" \t\r") == std::string::npos) continue;
     const auto fields = SplitCsvLine(line);
-    if (line_number == 1) {
+    if (col_file < 0) {  // the first line that is not blank is the header
       col_frame = ColumnIndex(fields, "frame");
       col_time = ColumnIndex(fields, "timestamp_ns");
       col_file = ColumnIndex(fields, "file");

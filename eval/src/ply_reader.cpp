@@ -101,7 +101,9 @@ Result<Header> ParseHeader(const std::string& text, const std::string& file) {
     std::string keyword;
     words >> keyword;
     if (keyword == "end_header") {
-      header.body_offset = static_cast<size_t>(in.tellg());
+      // At the end of the file (no newline after end_header) tellg fails: no body.
+      const auto offset = in.tellg();
+      header.body_offset = offset < 0 ? text.size() : static_cast<size_t>(offset);
       if (!have_format) return MakeError(file + ": header has no format line");
       return header;
     }
@@ -160,7 +162,8 @@ Result<std::vector<Eigen::Vector3d>> ReadPlyPoints(const std::filesystem::path& 
       return MakeError(file + ": the vertex element lacks a scalar x, y or z property");
     }
     std::vector<Eigen::Vector3d> points;
-    if (is_vertex) points.reserve(static_cast<size_t>(element.count));
+    // The header's count is not trusted for the allocation: a point takes at least a byte.
+    if (is_vertex) points.reserve(static_cast<size_t>(std::min<long long>(element.count, static_cast<long long>(text->size()))));
     for (long long i = 0; i < element.count; ++i) {
       Eigen::Vector3d point;
       for (size_t p = 0; p < element.properties.size(); ++p) {
@@ -168,7 +171,8 @@ Result<std::vector<Eigen::Vector3d>> ReadPlyPoints(const std::filesystem::path& 
         double value = 0;
         const bool ok = property.count_type.empty() ? body.Read(property.type, &value) : [&] {
           double items = 0;
-          if (!body.Read(property.count_type, &items) || items < 0) return false;
+          // A list count read as float may be NaN or beyond long long; the items run out long before 2^31.
+          if (!body.Read(property.count_type, &items) || !(items >= 0 && items <= 2147483647.0)) return false;
           for (long long k = 0; k < static_cast<long long>(items); ++k) {
             if (!body.Read(property.type, &value)) return false;
           }

@@ -68,6 +68,10 @@ FrameState& Reconstructor::MakeFrameState(const DetectionSet& detections) {
   std::vector<Eigen::Vector2d> pixels;
   for (const auto& d : detections.tags) {
     if (seen[d.id] != 1 || !(targets_.SizeOf(d.id) > 0)) continue;
+    // A NaN or infinite corner would reach every adjustment's residuals (found by degenerate_geometry_test).
+    bool finite = true;
+    for (const auto& c : d.corners) finite = finite && c.allFinite();
+    if (!finite) continue;
     TagObservation obs;
     obs.id = d.id;
     obs.pixels = d.corners;

@@ -1,6 +1,7 @@
 #pragma once
 // Reading YAML files (recording.yaml, capture settings, scene.yaml) with
 // errors that name the file and the field, the same way everywhere.
+#include <optional>
 #include <string>
 
 #include <yaml-cpp/yaml.h>
@@ -21,7 +22,13 @@ Result<YAML::Node> LoadYamlFile(const std::string& file, bool allow_empty = fals
 template <class T>
 Status ReadYamlField(const YAML::Node& node, const std::string& key, const std::string& where, T* out,
                      bool required = false) {
-  const YAML::Node value = node[key];
+  std::optional<YAML::Node> found;
+  try {
+    found.emplace(node[key]);  // throws when `node` is a scalar, not a block of fields
+  } catch (const YAML::Exception&) {
+    return MakeError(where + key + ": the block is not a mapping of fields: '" + YAML::Dump(node) + "'");
+  }
+  const YAML::Node& value = *found;
   if (!value) {
     if (required) return MakeError(where + key + " is missing");
     return Status::Ok();
