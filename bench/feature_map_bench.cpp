@@ -6,9 +6,10 @@
 //   feature_map_bench poses REC OUT [options]    poses and targets from a replay's OUT (real photos)
 //   feature_map_bench middlebury DIR [options]   DIR/*_par.txt: exact cameras, no targets
 //
-// options: --max-features N --contrast C --plain-sift --epipolar PX --ratio R --max-distance D
-//          --neighbours N --min-overlap S --max-view-angle DEG --min-angle DEG --max-view-error PX
-//          --max-rms PX --max-relative-sigma S --min-views N --depth-factor F --every N
+// options: --max-features N --contrast C --plain-sift 0|1 --image-scale S --epipolar PX --ratio R
+//          --max-distance D --neighbours N --min-overlap S --max-view-angle DEG --min-angle DEG
+//          --max-view-error PX --max-rms PX --max-relative-sigma S --feature-sigma PX --min-views N
+//          --refine 0|1 --refined-sigma PX --half-window N --min-correlation C --max-fit-sigma PX --depth-factor F --every N
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -148,6 +149,169 @@ Input LoadMiddlebury(const fs::path& dir) {
   return in;
 }
 
+struct BenchOptions {
+  FeatureExtractorOptions extractor;
+  FeatureMapOptions map;
+  double depth_factor = 2.0;
+  int every = 1;
+};
+
+// "--name value" pairs after the mode's arguments; false on an unknown name.
+bool ParseOptions(int argc, char** argv, int first, BenchOptions& o) {
+  for (int arg = first; arg + 1 < argc; arg += 2) {
+    const std::string name = argv[arg];
+    const double v = std::stod(argv[arg + 1]);
+    TrackTriangulationOptions& t = o.map.triangulation;
+    if (name == "--max-features") o.extractor.max_features = static_cast<int>(v);
+    else if (name == "--contrast") o.extractor.contrast_threshold = v;
+    else if (name == "--plain-sift") o.extractor.root_sift = v == 0;
+    else if (name == "--image-scale") o.extractor.image_scale = v;
+    else if (name == "--epipolar") o.map.matcher.epipolar_px = v;
+    else if (name == "--ratio") o.map.matcher.ratio = v;
+    else if (name == "--max-distance") o.map.matcher.max_descriptor_distance = v;
+    else if (name == "--neighbours") o.map.max_neighbours = static_cast<int>(v);
+    else if (name == "--min-overlap") o.map.min_overlap = v;
+    else if (name == "--max-view-angle") o.map.max_view_angle_deg = v;
+    else if (name == "--min-angle") t.min_angle_deg = v;
+    else if (name == "--max-view-error") t.max_view_error_px = v;
+    else if (name == "--max-rms") t.max_reprojection_rms_px = v;
+    else if (name == "--max-relative-sigma") t.max_relative_sigma = v;
+    else if (name == "--feature-sigma") t.feature_sigma_px = v;
+    else if (name == "--min-views") t.min_views = static_cast<int>(v);
+    else if (name == "--refine") o.map.refine = v != 0;
+    else if (name == "--refined-sigma") o.map.refined_feature_sigma_px = v;
+    else if (name == "--half-window") o.map.refinement.half_window = static_cast<int>(v);
+    else if (name == "--min-correlation") o.map.refinement.min_correlation = v;
+    else if (name == "--max-fit-sigma") o.map.refinement.max_sigma_px = v;
+    else if (name == "--depth-factor") o.depth_factor = v;
+    else if (name == "--every") o.every = static_cast<int>(v);
+    else {
+      std::cerr << "unknown option " << name << "\n";
+      return false;
+    }
+  }
+  return true;
+}
+
+// The recording or photo set of the mode; throws with a one-line message.
+Input LoadInput(const std::string& mode, char** argv, int every) {
+  Input in;
+  if (mode == "synth") {
+    const fs::path rec = argv[2];
+    in = LoadRecording(rec, *ReadPosesCsv(rec / "ground_truth/poses.csv"), every);
+    in.targets = *ReadTargetsCsv(rec / "ground_truth/targets.csv");
+    in.surfaces = *eval::ReadSceneYaml(rec / "ground_truth/scene.yaml");
+  } else if (mode == "poses") {
+    in = LoadRecording(argv[2], *ReadPosesCsv(fs::path(argv[3]) / "poses.csv"), every);
+    in.targets = *ReadTargetsCsv(fs::path(argv[3]) / "targets.csv");
+  } else if (mode == "middlebury") {
+    in = LoadMiddlebury(argv[2]);
+  } else {
+    throw std::runtime_error("unknown mode " + mode);
+  }
+  return in;
+}
+
+// Extraction and matching of every image in turn, timed, into the map.
+struct MapRun {
+  PoseMap poses;
+  double extract_ms = 0, add_ms = 0, triangulate_ms = 0;
+  long long features = 0, matches = 0, pairs = 0;
+  double image_mb = 0, descriptor_mb = 0;  // what the keyframes hold
+  std::vector<FeatureTrack> tracks;
+  std::vector<FeaturePoint> points;
+};
+
+Result<MapRun> RunMap(const Input& in, const BenchOptions& o) {
+  auto map = FeatureMap::Create(in.camera, o.map);
+  if (!map) return map.error();
+  MapRun run;
+  for (const auto& image : in.images) {
+    auto t0 = std::chrono::steady_clock::now();
+    auto f = ExtractFeatures(image.gray, image.colour, image.tags, o.extractor);
+    run.extract_ms += Ms(t0);
+    if (!f) return f.error();
+    run.features += f->size();
+    run.image_mb += static_cast<double>(f->image.total() * f->image.elemSize()) / 1e6;
+    run.descriptor_mb += static_cast<double>(f->descriptors.total() * f->descriptors.elemSize()) / 1e6;
+    t0 = std::chrono::steady_clock::now();
+    auto stats = map->AddKeyframe(std::move(*f), image.cam_from_world, DepthOf(in, image.cam_from_world, o.depth_factor));
+    run.add_ms += Ms(t0);
+    if (!stats) return stats.error();
+    run.matches += stats->matches;
+    run.pairs += static_cast<long long>(stats->matched_with.size());
+    run.poses[image.frame] = image.cam_from_world;
+  }
+  const auto t0 = std::chrono::steady_clock::now();
+  run.tracks = map->Tracks();
+  run.points = map->Triangulate(run.poses, in.camera);
+  run.triangulate_ms = Ms(t0);
+  return run;
+}
+
+// Counts, timings and the points' reprojection errors.
+nlohmann::json Summary(const Input& in, const MapRun& run) {
+  nlohmann::json out;
+  const double keyframes = static_cast<double>(in.images.size());
+  out["keyframes"] = in.images.size();
+  out["features_per_keyframe"] = static_cast<double>(run.features) / keyframes;
+  out["extract_ms_per_keyframe"] = run.extract_ms / keyframes;
+  out["add_ms_per_keyframe"] = run.add_ms / keyframes;
+  out["image_mb_per_keyframe"] = run.image_mb / keyframes;
+  out["descriptor_mb_per_keyframe"] = run.descriptor_mb / keyframes;
+  out["pairs"] = run.pairs;
+  out["matches_per_pair"] = run.pairs ? static_cast<double>(run.matches) / static_cast<double>(run.pairs) : 0.0;
+  out["match_ms_per_pair"] = run.pairs ? run.add_ms / static_cast<double>(run.pairs) : 0.0;
+  out["tracks"] = run.tracks.size();
+  out["triangulate_ms"] = run.triangulate_ms;
+  out["points"] = run.points.size();
+  double sum_sq = 0, sum = 0;
+  long long observations = 0;
+  std::map<size_t, int> by_length;
+  for (const FeaturePoint& p : run.points) {
+    observations += static_cast<long long>(p.observations.size());
+    ++by_length[std::min<size_t>(p.observations.size(), 10)];
+    for (const auto& [frame, pixel] : p.observations) {
+      const double e = (in.camera.Project(run.poses.at(frame) * p.position) - pixel).norm();
+      sum += e;
+      sum_sq += e * e;
+    }
+  }
+  const double n = static_cast<double>(observations);
+  out["mean_track_length"] = run.points.empty() ? 0.0 : n / static_cast<double>(run.points.size());
+  out["mean_reprojection_px"] = observations ? sum / n : 0.0;
+  out["rms_reprojection_px"] = observations ? std::sqrt(sum_sq / n) : 0.0;
+  for (const auto& [length, count] : by_length) out["points_by_views"][std::to_string(length)] = count;
+  return out;
+}
+
+// The points' distances to the true surfaces: shares within 0.5-5 mm, and
+// against each point's predicted sigma.
+void AddSurfaceScores(const Input& in, const std::vector<FeaturePoint>& points, nlohmann::json& out) {
+  if (in.surfaces.empty() || points.empty()) return;
+  std::vector<double> d;
+  for (const FeaturePoint& p : points) d.push_back(eval::DistanceToSurfaces(in.surfaces, p.position));
+  for (double mm : {0.5, 1.0, 2.0, 5.0}) {
+    const auto n = std::count_if(d.begin(), d.end(), [&](double x) { return x <= mm * 1e-3; });
+    out["within_mm"][std::to_string(mm).substr(0, 3)] = static_cast<double>(n) / static_cast<double>(d.size());
+    out["points_within_mm"][std::to_string(mm).substr(0, 3)] = n;
+  }
+  out["median_mm"] = 1e3 * Median(d);
+  // Distance over the covariance's largest axis: beyond 3, a wrong match
+  // (or a noise model too optimistic), not noise.
+  int beyond3 = 0;
+  std::map<int, std::pair<int, int>> by_sigma;  // predicted sigma (mm, rounded up) -> points, within 2 mm
+  for (size_t i = 0; i < points.size(); ++i) {
+    const double s = std::sqrt(Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(points[i].covariance).eigenvalues()(2));
+    beyond3 += d[i] > 3 * s;
+    auto& b = by_sigma[std::min(10, static_cast<int>(std::ceil(s * 1e3)))];
+    ++b.first;
+    b.second += d[i] <= 2e-3;
+  }
+  out["share_beyond_3_sigma"] = static_cast<double>(beyond3) / static_cast<double>(points.size());
+  for (const auto& [mm, b] : by_sigma) out["within_2mm_by_sigma_mm"][std::to_string(mm)] = {b.first, static_cast<double>(b.second) / b.first};
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -156,138 +320,22 @@ int main(int argc, char** argv) {
     return 2;
   }
   const std::string mode = argv[1];
-  int arg = mode == "poses" ? 4 : 3;
-  FeatureExtractorOptions extractor;
-  FeatureMapOptions map_options;
-  double depth_factor = 2.0;
-  int every = 1;
-  for (; arg + 1 < argc; arg += 2) {
-    const std::string name = argv[arg];
-    const double v = std::stod(argv[arg + 1]);
-    if (name == "--max-features") extractor.max_features = static_cast<int>(v);
-    else if (name == "--contrast") extractor.contrast_threshold = v;
-    else if (name == "--plain-sift") extractor.root_sift = v == 0;
-    else if (name == "--epipolar") map_options.matcher.epipolar_px = v;
-    else if (name == "--ratio") map_options.matcher.ratio = v;
-    else if (name == "--max-distance") map_options.matcher.max_descriptor_distance = v;
-    else if (name == "--neighbours") map_options.max_neighbours = static_cast<int>(v);
-    else if (name == "--min-overlap") map_options.min_overlap = v;
-    else if (name == "--max-view-angle") map_options.max_view_angle_deg = v;
-    else if (name == "--min-angle") map_options.triangulation.min_angle_deg = v;
-    else if (name == "--max-view-error") map_options.triangulation.max_view_error_px = v;
-    else if (name == "--max-rms") map_options.triangulation.max_reprojection_rms_px = v;
-    else if (name == "--max-relative-sigma") map_options.triangulation.max_relative_sigma = v;
-    else if (name == "--min-views") map_options.triangulation.min_views = static_cast<int>(v);
-    else if (name == "--depth-factor") depth_factor = v;
-    else if (name == "--every") every = static_cast<int>(v);
-    else {
-      std::cerr << "unknown option " << name << "\n";
-      return 2;
-    }
-  }
+  BenchOptions options;
+  if (!ParseOptions(argc, argv, mode == "poses" ? 4 : 3, options)) return 2;
   Input in;
   try {
-    if (mode == "synth") {
-      const fs::path rec = argv[2];
-      in = LoadRecording(rec, *ReadPosesCsv(rec / "ground_truth/poses.csv"), every);
-      in.targets = *ReadTargetsCsv(rec / "ground_truth/targets.csv");
-      in.surfaces = *eval::ReadSceneYaml(rec / "ground_truth/scene.yaml");
-    } else if (mode == "poses") {
-      in = LoadRecording(argv[2], *ReadPosesCsv(fs::path(argv[3]) / "poses.csv"), every);
-      in.targets = *ReadTargetsCsv(fs::path(argv[3]) / "targets.csv");
-    } else if (mode == "middlebury") {
-      in = LoadMiddlebury(argv[2]);
-    } else {
-      std::cerr << "unknown mode " << mode << "\n";
-      return 2;
-    }
+    in = LoadInput(mode, argv, options.every);
   } catch (const std::exception& e) {
     std::cerr << e.what() << "\n";
     return 1;
   }
-
-  auto map = FeatureMap::Create(in.camera, map_options);
-  if (!map) {
-    std::cerr << map.error().message << "\n";
+  const Result<MapRun> run = RunMap(in, options);
+  if (!run) {
+    std::cerr << run.error().message << "\n";
     return 1;
   }
-  PoseMap poses;
-  double extract_ms = 0, add_ms = 0;
-  long long features = 0, matches = 0, pairs = 0;
-  for (const auto& image : in.images) {
-    auto t0 = std::chrono::steady_clock::now();
-    auto f = ExtractFeatures(image.gray, image.colour, image.tags, extractor);
-    extract_ms += Ms(t0);
-    if (!f) {
-      std::cerr << f.error().message << "\n";
-      return 1;
-    }
-    features += f->size();
-    t0 = std::chrono::steady_clock::now();
-    auto stats = map->AddKeyframe(std::move(*f), image.cam_from_world, DepthOf(in, image.cam_from_world, depth_factor));
-    add_ms += Ms(t0);
-    if (!stats) {
-      std::cerr << stats.error().message << "\n";
-      return 1;
-    }
-    matches += stats->matches;
-    pairs += static_cast<long long>(stats->matched_with.size());
-    poses[image.frame] = image.cam_from_world;
-  }
-  auto t0 = std::chrono::steady_clock::now();
-  const std::vector<FeatureTrack> tracks = map->Tracks();
-  const std::vector<FeaturePoint> points = map->Triangulate(poses, in.camera);
-  const double triangulate_ms = Ms(t0);
-
-  nlohmann::json out;
-  out["keyframes"] = in.images.size();
-  out["features_per_keyframe"] = static_cast<double>(features) / static_cast<double>(in.images.size());
-  out["extract_ms_per_keyframe"] = extract_ms / static_cast<double>(in.images.size());
-  out["pairs"] = pairs;
-  out["matches_per_pair"] = pairs ? static_cast<double>(matches) / static_cast<double>(pairs) : 0.0;
-  out["match_ms_per_pair"] = pairs ? add_ms / static_cast<double>(pairs) : 0.0;
-  out["tracks"] = tracks.size();
-  out["triangulate_ms"] = triangulate_ms;
-  out["points"] = points.size();
-  double sum_sq = 0, sum = 0;
-  long long observations = 0;
-  std::map<size_t, int> by_length;
-  for (const FeaturePoint& p : points) {
-    observations += static_cast<long long>(p.observations.size());
-    ++by_length[std::min<size_t>(p.observations.size(), 10)];
-    for (const auto& [frame, pixel] : p.observations) {
-      const double e = (in.camera.Project(poses.at(frame) * p.position) - pixel).norm();
-      sum += e;
-      sum_sq += e * e;
-    }
-  }
-  out["mean_track_length"] = points.empty() ? 0.0 : static_cast<double>(observations) / static_cast<double>(points.size());
-  out["mean_reprojection_px"] = observations ? sum / static_cast<double>(observations) : 0.0;
-  out["rms_reprojection_px"] = observations ? std::sqrt(sum_sq / static_cast<double>(observations)) : 0.0;
-  for (const auto& [length, n] : by_length) out["points_by_views"][std::to_string(length)] = n;
-  if (!in.surfaces.empty() && !points.empty()) {
-    std::vector<double> d;
-    for (const FeaturePoint& p : points) d.push_back(eval::DistanceToSurfaces(in.surfaces, p.position));
-    for (double mm : {0.5, 1.0, 2.0, 5.0}) {
-      const auto n = std::count_if(d.begin(), d.end(), [&](double x) { return x <= mm * 1e-3; });
-      out["within_mm"][std::to_string(mm).substr(0, 3)] = static_cast<double>(n) / static_cast<double>(d.size());
-      out["points_within_mm"][std::to_string(mm).substr(0, 3)] = n;
-    }
-    out["median_mm"] = 1e3 * Median(d);
-    // Distance over the covariance's largest axis: beyond 3, a wrong match
-    // (or a noise model too optimistic), not noise.
-    int beyond3 = 0;
-    std::map<int, std::pair<int, int>> by_sigma;  // predicted sigma (mm, rounded up) -> points, within 2 mm
-    for (size_t i = 0; i < points.size(); ++i) {
-      const double s = std::sqrt(Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(points[i].covariance).eigenvalues()(2));
-      beyond3 += d[i] > 3 * s;
-      auto& b = by_sigma[std::min(10, static_cast<int>(std::ceil(s * 1e3)))];
-      ++b.first;
-      b.second += d[i] <= 2e-3;
-    }
-    out["share_beyond_3_sigma"] = static_cast<double>(beyond3) / static_cast<double>(points.size());
-    for (const auto& [mm, b] : by_sigma) out["within_2mm_by_sigma_mm"][std::to_string(mm)] = {b.first, static_cast<double>(b.second) / b.first};
-  }
+  nlohmann::json out = Summary(in, *run);
+  AddSurfaceScores(in, run->points, out);
   std::cout << out.dump() << "\n";
   return 0;
 }

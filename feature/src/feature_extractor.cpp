@@ -26,6 +26,7 @@ Status KeyframeFeatures::Check() const {
   if (n > 0 && (descriptors.type() != CV_32F || descriptors.cols != 128 || static_cast<size_t>(descriptors.rows) != n)) {
     return MakeError(where + "features need one 128-float descriptor per pixel");
   }
+  if (!image.empty() && image.type() != CV_8UC1) return MakeError(where + "the features' image must be 8-bit grey");
   return Status::Ok();
 }
 
@@ -90,6 +91,7 @@ Result<KeyframeFeatures> ExtractFeatures(const cv::Mat& gray, const cv::Mat& col
   KeyframeFeatures out;
   out.frame = tags.frame;
   out.descriptors = descriptors;
+  out.image = gray.clone();  // the caller may reuse its buffer
   const size_t n = keypoints.size();
   out.pixels.reserve(n);
   out.rgb.reserve(n);

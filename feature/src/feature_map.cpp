@@ -3,12 +3,17 @@
 #include <algorithm>
 #include <cmath>
 #include <string>
+#include <unordered_map>
+
+#include "tagsfm/feature/track_refinement.h"
 
 namespace tagsfm {
 
 Status FeatureMapOptions::Check() const {
   if (Status s = matcher.Check(); !s) return s;
   if (Status s = triangulation.Check(); !s) return s;
+  if (Status s = refinement.Check(); !s) return s;
+  if (!(refined_feature_sigma_px > 0)) return MakeError("feature_map.refined_feature_sigma_px must be > 0");
   if (max_neighbours < 1) return MakeError("feature_map.max_neighbours must be >= 1");
   if (!(min_overlap >= 0 && min_overlap <= 1)) return MakeError("feature_map.min_overlap must be in [0, 1]");
   if (!(max_view_angle_deg > 0 && max_view_angle_deg <= 180)) return MakeError("feature_map.max_view_angle_deg must be in (0, 180]");
@@ -202,7 +207,30 @@ std::vector<FeatureTrack> FeatureMap::Tracks() const {
 }
 
 std::vector<FeaturePoint> FeatureMap::Triangulate(const PoseMap& cam_from_world, const CameraModel& camera) const {
-  return TriangulateTracks(Tracks(), cam_from_world, camera, options_.triangulation);
+  std::vector<FeatureTrack> tracks = Tracks();
+  if (!options_.refine) return TriangulateTracks(tracks, cam_from_world, camera, options_.triangulation);
+  // The first points only predict the warps: no sigma filter, SIFT's noise.
+  TrackTriangulationOptions first_pass = options_.triangulation;
+  first_pass.max_relative_sigma = 1.0;
+  const std::vector<FeaturePoint> first = TriangulateTracks(tracks, cam_from_world, camera, first_pass);
+  std::unordered_map<FrameId, const cv::Mat*> images;
+  for (const PosedKeyframe& k : keyframes_) images[k.features.frame] = &k.features.image;
+  const KeyframeImageLookup image_of = [&](FrameId frame) -> const cv::Mat* {
+    const auto it = images.find(frame);
+    return it == images.end() ? nullptr : it->second;
+  };
+  // Both sorted by track id; every point has its track.
+  std::vector<FeatureTrack> refined;
+  refined.reserve(first.size());
+  auto track = tracks.begin();
+  for (const FeaturePoint& p : first) {
+    while (track->id != p.track) ++track;
+    FeatureTrack r = RefineTrackViews(*track, p, cam_from_world, image_of, camera, options_.refinement);
+    if (!r.observations.empty()) refined.push_back(std::move(r));
+  }
+  TrackTriangulationOptions final_pass = options_.triangulation;
+  final_pass.feature_sigma_px = options_.refined_feature_sigma_px;
+  return TriangulateTracks(refined, cam_from_world, camera, final_pass);
 }
 
 }  // namespace tagsfm

@@ -129,10 +129,12 @@ TEST(FeatureMapSlow, SmallBoxWalkPointsLieOnTheTrueSurfaces) {
     const WalkResult r = RunWalk(options, false);
     std::cout << "seed " << seed << ": " << r.points << " points, " << r.within_2mm << " within 2 mm, " << r.within_5mm
               << " within 5 mm, " << r.tracks_with_gap << " tracks across a gap\n";
-    // Measured 1,283-1,463 points, 80-81 % within 2 mm, 93-94 % within 5 mm.
-    EXPECT_GT(r.points, 900) << "seed " << seed;
-    EXPECT_GT(r.within_2mm, 0.7) << "seed " << seed;
-    EXPECT_GT(r.within_5mm, 0.88) << "seed " << seed;
+    // Measured with the least-squares refinement 6,731-7,778 points, 90.6-94.5 %
+    // within 2 mm, 97.8-98.3 % within 5 mm; without it 1,283-1,463 points,
+    // 80-81 % and 93-94 %, which these bounds refuse.
+    EXPECT_GT(r.points, 5000) << "seed " << seed;
+    EXPECT_GT(r.within_2mm, 0.87) << "seed " << seed;
+    EXPECT_GT(r.within_5mm, 0.96) << "seed " << seed;
     EXPECT_GT(r.tracks_with_gap, 0) << "seed " << seed;
   }
 }

@@ -44,9 +44,14 @@ struct KeyframeFeatures {
   std::vector<std::array<std::uint8_t, 3>> rgb;
   std::vector<float> scale;        // SIFT keypoint diameter, full-size pixels
   std::vector<float> orientation;  // SIFT orientation, degrees
+  // The keyframe's 8-bit grey image (full size), which the least-squares
+  // refinement of the tracks reads (track_refinement.h); empty: the
+  // keyframe's views are triangulated as SIFT found them.
+  cv::Mat image;
 
   int size() const { return static_cast<int>(pixels.size()); }
-  // The vectors agree in length and the descriptors are 128-column floats.
+  // The vectors agree in length, the descriptors are 128-column floats and
+  // the image, if any, is 8-bit grey.
   Status Check() const;
 };
 

@@ -14,13 +14,25 @@
 #include "tagsfm/feature/feature_extractor.h"
 #include "tagsfm/feature/feature_triangulation.h"
 #include "tagsfm/feature/guided_matcher.h"
+#include "tagsfm/feature/patch_refinement.h"
 #include "tagsfm/feature/track_triangulation.h"
 
 namespace tagsfm {
 
 struct FeatureMapOptions {
   GuidedMatcherOptions matcher;
+  // The triangulation of the tracks (with `refine`, the first pass, minus
+  // its sigma filter, and the final one, with refined_feature_sigma_px).
   TrackTriangulationOptions triangulation;
+  // Least-squares matching of every view of a track to a reference view
+  // before the final triangulation (track_refinement.h); a first
+  // triangulation of the SIFT pixels predicts the warps.
+  bool refine = true;
+  PatchRefinementOptions refinement;
+  // The refined views' localisation noise, px, for the final pass's
+  // predicted-sigma filter and covariance floor (measured in
+  // docs/features.md).
+  double refined_feature_sigma_px = 0.1;
   int max_neighbours = 8;  // earlier keyframes a new one is matched with, most overlapping first
   // Share of the new keyframe's view (a grid of rays at its typical scene
   // depth) that must fall inside an earlier keyframe's image.
@@ -56,7 +68,8 @@ class FeatureMap {
 
   // Tracks of two or more views, each view's feature index and pixel.
   std::vector<FeatureTrack> Tracks() const;
-  // Points of every track from the final poses (options.triangulation).
+  // Points of every track from the final poses: with options.refine, the
+  // tracks' views are refined by least-squares matching first.
   std::vector<FeaturePoint> Triangulate(const PoseMap& cam_from_world, const CameraModel& camera) const;
 
   int keyframes() const { return static_cast<int>(keyframes_.size()); }

@@ -1,0 +1,58 @@
+#pragma once
+// Least-squares matching (Gruen 1985), the photogrammetric refinement of a
+// matched point: a small patch of a reference image round a feature is
+// fitted to a second image under an affine warp and a brightness/contrast
+// change, by Gauss-Newton on the grey-value differences. SIFT puts a
+// feature within ~0.3-0.4 px of where the same surface point is in another
+// view; the fit brings the views of a track to a few hundredths of a pixel
+// of one another, which is what the depth of a point from narrow rays needs.
+#include <optional>
+
+#include <Eigen/Core>
+#include <opencv2/core.hpp>
+
+#include "tagsfm/core/result.h"
+
+namespace tagsfm {
+
+struct PatchRefinementOptions {
+  int half_window = 7;     // the patch is (2 h + 1)^2 reference pixels
+  int max_iterations = 12;
+  double converged_px = 0.005;  // stop when the centre moves less than this
+  // Furthest the fitted centre may move from where it started: beyond, the
+  // match was wrong or the fit ran off along an edge.
+  double max_shift_px = 2.0;
+  // Least normalised cross-correlation of the fitted patches: lower is
+  // a different surface, an occlusion or a specular spot.
+  double min_correlation = 0.8;
+  // Largest predicted standard deviation of the fitted centre (along its
+  // worse axis, from the fit's residual and normal matrix): an edge or a
+  // flat patch is located only along one axis or not at all.
+  double max_sigma_px = 0.1;
+
+  Status Check() const;  // names the wrong field
+};
+
+// Where the reference patch lies in the other image: its centre and the
+// affine map of offsets from the reference centre (target offset = A *
+// reference offset).
+struct PatchWarp {
+  Eigen::Vector2d centre = Eigen::Vector2d::Zero();
+  Eigen::Matrix2d affine = Eigen::Matrix2d::Identity();
+};
+
+struct PatchFit {
+  PatchWarp warp;
+  double correlation = 0;  // normalised cross-correlation at the fit
+  double sigma_px = 0;     // predicted standard deviation of warp.centre, worse axis
+  int iterations = 0;
+};
+
+// Fits the patch of `reference` (8-bit grey) round `reference_pixel` into
+// `target` (8-bit grey), starting from `start`. Pixels in OpenCV's convention
+// (centres at integers). nullopt when the patch leaves either image, the
+// fit does not converge, or it fails one of the options' checks.
+std::optional<PatchFit> RefinePatch(const cv::Mat& reference, const Eigen::Vector2d& reference_pixel, const cv::Mat& target,
+                                    const PatchWarp& start, const PatchRefinementOptions& options);
+
+}  // namespace tagsfm

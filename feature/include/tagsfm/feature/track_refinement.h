@@ -1,0 +1,39 @@
+#pragma once
+// Multi-photo least-squares matching of a track: every view of a
+// triangulated point is fitted (patch_refinement.h) to one reference view,
+// the warp predicted from the known poses and a plane through the point
+// facing the cameras. The reference keeps its SIFT pixel; its own error
+// only slides the point along the surface, while the other views now see
+// the same surface point to a few hundredths of a pixel, so the depth along
+// narrow rays is no longer set by SIFT's localisation.
+#include <functional>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "tagsfm/core/camera_model.h"
+#include "tagsfm/core/csv_formats.h"
+#include "tagsfm/feature/feature_triangulation.h"
+#include "tagsfm/feature/patch_refinement.h"
+#include "tagsfm/feature/track_triangulation.h"
+
+namespace tagsfm {
+
+// The keyframe's grey image, or nullptr when it has none.
+using KeyframeImageLookup = std::function<const cv::Mat*(FrameId)>;
+
+// The affine map, at `point`, from the reference view's image to the
+// target view's, of a plane through `point` with unit normal `normal`.
+Eigen::Matrix2d PredictPatchAffine(const Eigen::Vector3d& point, const Eigen::Vector3d& normal, const Rigid3d& reference,
+                                   const Rigid3d& target, const CameraModel& camera);
+
+// `track`'s views that are in `point` (a first triangulation of it), each
+// but the reference moved to where the reference patch fits; views that
+// fail the fit are dropped. The reference is the view nearest the mean
+// viewing direction. Views are left out when the reference has no image;
+// an empty track when fewer than two remain.
+FeatureTrack RefineTrackViews(const FeatureTrack& track, const FeaturePoint& point, const PoseMap& cam_from_world,
+                              const KeyframeImageLookup& image_of, const CameraModel& camera,
+                              const PatchRefinementOptions& options);
+
+}  // namespace tagsfm

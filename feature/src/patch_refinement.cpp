@@ -1,0 +1,131 @@
+#include "tagsfm/feature/patch_refinement.h"
+
+#include <cmath>
+#include <vector>
+
+#include <Eigen/Cholesky>
+#include <Eigen/Eigenvalues>
+
+namespace tagsfm {
+
+Status PatchRefinementOptions::Check() const {
+  if (half_window < 2 || half_window > 32) return MakeError("refinement.half_window must be in [2, 32]");
+  if (max_iterations < 1) return MakeError("refinement.max_iterations must be >= 1");
+  if (!(converged_px > 0)) return MakeError("refinement.converged_px must be > 0");
+  if (!(max_shift_px > 0)) return MakeError("refinement.max_shift_px must be > 0");
+  if (!(min_correlation >= -1 && min_correlation <= 1)) return MakeError("refinement.min_correlation must be in [-1, 1]");
+  if (!(max_sigma_px > 0)) return MakeError("refinement.max_sigma_px must be > 0");
+  return Status::Ok();
+}
+
+namespace {
+
+// Bilinear grey value at (x, y); the caller keeps (x, y) at least one pixel
+// inside the image.
+inline double Sample(const cv::Mat& image, double x, double y) {
+  const int x0 = static_cast<int>(std::floor(x)), y0 = static_cast<int>(std::floor(y));
+  const double fx = x - x0, fy = y - y0;
+  const std::uint8_t* r0 = image.ptr<std::uint8_t>(y0) + x0;
+  const std::uint8_t* r1 = image.ptr<std::uint8_t>(y0 + 1) + x0;
+  return (1 - fy) * ((1 - fx) * r0[0] + fx * r0[1]) + fy * ((1 - fx) * r1[0] + fx * r1[1]);
+}
+
+inline bool Inside(const cv::Mat& image, double x, double y, double margin) {
+  return x >= margin && y >= margin && x <= image.cols - 1 - margin && y <= image.rows - 1 - margin;
+}
+
+double Correlation(const std::vector<double>& a, const std::vector<double>& b) {
+  const double n = static_cast<double>(a.size());
+  double sa = 0, sb = 0, saa = 0, sbb = 0, sab = 0;
+  for (size_t i = 0; i < a.size(); ++i) {
+    sa += a[i];
+    sb += b[i];
+    saa += a[i] * a[i];
+    sbb += b[i] * b[i];
+    sab += a[i] * b[i];
+  }
+  const double va = saa - sa * sa / n, vb = sbb - sb * sb / n;
+  return va > 0 && vb > 0 ? (sab - sa * sb / n) / std::sqrt(va * vb) : 0.0;
+}
+
+}  // namespace
+
+std::optional<PatchFit> RefinePatch(const cv::Mat& reference, const Eigen::Vector2d& reference_pixel, const cv::Mat& target,
+                                    const PatchWarp& start, const PatchRefinementOptions& options) {
+  const int h = options.half_window;
+  if (reference.type() != CV_8UC1 || target.type() != CV_8UC1) return std::nullopt;
+  if (!Inside(reference, reference_pixel.x() - h, reference_pixel.y() - h, 0) ||
+      !Inside(reference, reference_pixel.x() + h, reference_pixel.y() + h, 1)) {
+    return std::nullopt;
+  }
+  std::vector<Eigen::Vector2d> offsets;
+  std::vector<double> templ;
+  for (int dy = -h; dy <= h; ++dy) {
+    for (int dx = -h; dx <= h; ++dx) {
+      offsets.emplace_back(dx, dy);
+      templ.push_back(Sample(reference, reference_pixel.x() + dx, reference_pixel.y() + dy));
+    }
+  }
+  const size_t n = offsets.size();
+  PatchFit fit;
+  fit.warp = start;
+  double gain = 1, offset = 0;
+  std::vector<double> warped(n);
+  using Vector8d = Eigen::Matrix<double, 8, 1>;
+  using Matrix8d = Eigen::Matrix<double, 8, 8>;
+  Matrix8d normal;
+  double sum_sq = 0;
+  bool converged = false;
+  for (fit.iterations = 1; fit.iterations <= options.max_iterations; ++fit.iterations) {
+    normal.setZero();
+    Vector8d rhs = Vector8d::Zero();
+    sum_sq = 0;
+    for (size_t i = 0; i < n; ++i) {
+      const Eigen::Vector2d w = fit.warp.centre + fit.warp.affine * offsets[i];
+      // Central differences over two pixels (half the noise of the
+      // bilinear patch's own slope, measured in the tests) need a pixel on
+      // each side, bilinear one more.
+      if (!Inside(target, w.x(), w.y(), 2)) return std::nullopt;
+      const double s = Sample(target, w.x(), w.y());
+      const double gx = 0.5 * (Sample(target, w.x() + 1, w.y()) - Sample(target, w.x() - 1, w.y()));
+      const double gy = 0.5 * (Sample(target, w.x(), w.y() + 1) - Sample(target, w.x(), w.y() - 1));
+      warped[i] = s;
+      const double r = templ[i] - (gain * s + offset);
+      const double x = offsets[i].x(), y = offsets[i].y();
+      Vector8d j;
+      j << gain * gx, gain * gy, gain * gx * x, gain * gx * y, gain * gy * x, gain * gy * y, 1.0, s;
+      normal.selfadjointView<Eigen::Lower>().rankUpdate(j);
+      rhs += j * r;
+      sum_sq += r * r;
+    }
+    normal = normal.selfadjointView<Eigen::Lower>();
+    const Eigen::LDLT<Matrix8d> ldlt(normal);
+    if (ldlt.info() != Eigen::Success) return std::nullopt;
+    const Vector8d delta = ldlt.solve(rhs);
+    if (!delta.allFinite()) return std::nullopt;
+    fit.warp.centre += delta.head<2>();
+    fit.warp.affine(0, 0) += delta(2);
+    fit.warp.affine(0, 1) += delta(3);
+    fit.warp.affine(1, 0) += delta(4);
+    fit.warp.affine(1, 1) += delta(5);
+    offset += delta(6);
+    gain += delta(7);
+    if ((fit.warp.centre - start.centre).norm() > options.max_shift_px || !(gain > 0.2 && gain < 5)) return std::nullopt;
+    if (delta.head<2>().norm() < options.converged_px) {
+      converged = true;
+      break;
+    }
+  }
+  if (!converged) return std::nullopt;
+  // Noise of the grey values from the residuals (n - 8 degrees of freedom),
+  // through the normal matrix to the centre.
+  const double variance = sum_sq / static_cast<double>(n - 8);
+  const Matrix8d covariance = variance * normal.inverse();
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> centre_cov(covariance.topLeftCorner<2, 2>());
+  fit.sigma_px = std::sqrt(std::max(0.0, centre_cov.eigenvalues()(1)));
+  fit.correlation = Correlation(templ, warped);
+  if (!(fit.sigma_px <= options.max_sigma_px) || !(fit.correlation >= options.min_correlation)) return std::nullopt;
+  return fit;
+}
+
+}  // namespace tagsfm
