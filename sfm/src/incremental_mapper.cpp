@@ -8,7 +8,7 @@
 #include <set>
 #include <string>
 
-#include <fmt/format.h>
+#include <sstream>
 
 namespace tagsfm::sfm {
 
@@ -165,12 +165,14 @@ Status Mapper::Initialize() {
   if (!chosen) {
     std::string best = "none";
     if (!order.empty()) {
-      best = fmt::format("{} inliers at {:.2f} deg", order[0]->inliers.size(), order[0]->pose.median_angle_deg);
+      std::ostringstream text;
+      text.precision(3);
+      text << order[0]->inliers.size() << " inliers at " << order[0]->pose.median_angle_deg << " deg";
+      best = text.str();
     }
-    return MakeError(fmt::format(
-        "no initial pair: {} of {} view pairs verified by the essential matrix (most inliers: {}); too few matches, "
-        "no texture or a camera that only rotates",
-        pairs_.size(), stats_.pairs_matched, best));
+    return MakeError("no initial pair: " + std::to_string(pairs_.size()) + " of " + std::to_string(stats_.pairs_matched) +
+                     " view pairs verified by the essential matrix (most inliers: " + best +
+                     "); too few matches, no texture or a camera that only rotates");
   }
   stats_.init_a = chosen->a;
   stats_.init_b = chosen->b;
@@ -186,8 +188,8 @@ Status Mapper::Initialize() {
   TriangulateImage(chosen->b);
   AdjustGlobal();
   if (model_.LivePoints() < options_.abs_pose_min_inliers) {
-    return MakeError(fmt::format("initial pair (frames {}, {}): only {} points survive triangulation and adjustment",
-                                 a.frame, b.frame, model_.LivePoints()));
+    return MakeError("initial pair (frames " + std::to_string(a.frame) + ", " + std::to_string(b.frame) + "): only " +
+                     std::to_string(model_.LivePoints()) + " points survive triangulation and adjustment");
   }
   registered_at_last_global_ = 2;
   return Status::Ok();
@@ -405,7 +407,7 @@ Result<MapperResult> ReconstructIncremental(const std::vector<KeyframeFeatures>&
                                             const IncrementalMapperOptions& options) {
   if (Status s = options.Check(); !s) return s.error();
   if (Status s = camera.Check(); !s) return s.error();
-  if (views.size() < 2) return MakeError(fmt::format("SfM needs at least 2 views (got {})", views.size()));
+  if (views.size() < 2) return MakeError("SfM needs at least 2 views (got " + std::to_string(views.size()) + ")");
   for (const KeyframeFeatures& v : views) {
     if (Status s = v.Check(); !s) return s.error();
   }
