@@ -7,19 +7,12 @@
 
 #include "tagsfm/sfm/geometry.h"
 #include "tagsfm/sfm/two_view.h"
+#include "look_at.h"
 
 namespace tagsfm::sfm {
 namespace {
 
-Rigid3d LookingAtOrigin(const Eigen::Vector3d& centre) {
-  const Eigen::Vector3d z = (-centre).normalized();
-  const Eigen::Vector3d x = Eigen::Vector3d::UnitY().cross(z).normalized();
-  const Eigen::Vector3d y = z.cross(x);
-  Eigen::Matrix3d world_from_cam;
-  world_from_cam << x, y, z;
-  const Eigen::Matrix3d r = world_from_cam.transpose();
-  return Rigid3d(Eigen::Quaterniond(r), -(r * centre));
-}
+Rigid3d LookingAtOrigin(const Eigen::Vector3d& centre) { return LookingAt(centre, Eigen::Vector3d::Zero()); }
 
 std::vector<Eigen::Vector3d> PointsInBox(int n, unsigned seed) {
   std::mt19937 rng(seed);

@@ -9,20 +9,11 @@
 
 #include "tagsfm/eval/similarity.h"
 #include "tagsfm/sfm/incremental_mapper.h"
+#include "look_at.h"
 #include "test_camera.h"
 
 namespace tagsfm::sfm {
 namespace {
-
-Rigid3d LookingAt(const Eigen::Vector3d& centre, const Eigen::Vector3d& target) {
-  const Eigen::Vector3d z = (target - centre).normalized();
-  const Eigen::Vector3d x = Eigen::Vector3d::UnitY().cross(z).normalized();
-  const Eigen::Vector3d y = z.cross(x);
-  Eigen::Matrix3d world_from_cam;
-  world_from_cam << x, y, z;
-  const Eigen::Matrix3d r = world_from_cam.transpose();
-  return Rigid3d(Eigen::Quaterniond(r), -(r * centre));
-}
 
 struct SyntheticSet {
   CameraModel camera = testing::PinholeCamera(1280, 720, 1000, 639.5, 359.5);
