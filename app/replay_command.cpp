@@ -12,6 +12,7 @@
 #include "tagsfm/dashboard/dashboard_server.h"
 #include "tagsfm/export/result_writer.h"
 #include "tagsfm/pipeline/drivers.h"
+#include "tagsfm/pipeline/sfm_alone.h"
 #include "tagsfm/pipeline/target_map.h"
 
 namespace tagsfm {
@@ -25,6 +26,7 @@ struct ReplayArgs {
   bool no_features = false;
   bool no_targets = false;
   bool realtime = false;
+  int frame_step = 1;  // --no-targets: every Nth frame
   std::string dashboard = "127.0.0.1:8080";
   std::string tag_search;  // empty: the config's, or tracking
 };
@@ -42,11 +44,38 @@ Result<PipelineOptions> ReplayOptions(const ReplayArgs& args) {
   return options;
 }
 
-int RunReplay(const ReplayArgs& args) {
-  if (args.no_targets) {
-    spdlog::error("--no-targets (feature SfM alone) is not available yet: this build reconstructs from targets only");
-    return 2;
+// --no-targets: feature SfM alone (pipeline/sfm_alone.h), at arbitrary scale.
+int RunSfmAloneReplay(const ReplayArgs& args) {
+  if (args.realtime || !args.targets.empty() || args.no_features) {
+    return Fail(MakeError("--no-targets takes neither --realtime, --targets nor --no-features"), 2);
   }
+  SfmAloneOptions options;
+  options.frame_step = args.frame_step;
+  if (Status s = options.Check(); !s) return Fail(s.error(), 2);
+  auto reader = RecordingReader::Open(args.recording);
+  if (!reader) return Fail(reader.error(), 1);
+  for (const auto& warning : reader->warnings()) spdlog::warn("{}", warning);
+  ProgressLine progress("features", reader->entries().size());
+  auto result = RunSfmAlone(*reader, options, [&](size_t done, size_t) { progress.Update(done); });
+  progress.Done();
+  if (!result) return Fail(result.error(), 1);
+  for (const auto& [frame, why] : result->stats.skipped) spdlog::warn("skipped frame {}: {}", frame, why);
+  int registered = 0;
+  for (const FrameState& f : result->reconstruction.frames) {
+    registered += f.registered;
+    if (!f.registered) spdlog::warn("frame {}: {}", f.frame, f.reason);
+  }
+  if (Status s = WriteResults(args.out, result->reconstruction, result->stats); !s) return Fail(s.error(), 1);
+  std::fprintf(stderr,
+               "\n  SfM alone    %d of %zu frames registered, %zu points, arbitrary scale\n"
+               "  runtime      %.1f s (mapping %.1f s), peak memory %.0f MB\n  results in   %s\n\n",
+               registered, result->reconstruction.frames.size(), result->reconstruction.feature_points.size(),
+               result->stats.runtime_s, result->stats.triangulation_s, result->stats.peak_rss_mb, args.out.c_str());
+  return 0;
+}
+
+int RunReplay(const ReplayArgs& args) {
+  if (args.no_targets) return RunSfmAloneReplay(args);
   auto options = ReplayOptions(args);
   if (!options) return Fail(options.error(), 2);
   auto reader = RecordingReader::Open(args.recording);
@@ -100,7 +129,11 @@ void AddReplayCommand(CLI::App& app, int& exit_code) {
   cmd->add_option("--targets", args->targets, "known target map (targets.csv), overriding the recording's");
   cmd->add_option("--config", args->config, "YAML file whose pipeline: block sets the pipeline's options (firmware_config/README.md)");
   cmd->add_flag("--no-features", args->no_features, "targets only (photogrammetry alone): no SIFT feature points");
-  cmd->add_flag("--no-targets", args->no_targets, "feature SfM alone (not available yet)");
+  cmd->add_flag("--no-targets", args->no_targets,
+                "feature SfM alone, the SfM-only baseline: SIFT on every frame, incremental mapping with the "
+                "recording's intrinsics fixed, arbitrary scale (report.json: \"scale\": \"arbitrary\")");
+  cmd->add_option("--frame-step", args->frame_step, "with --no-targets: every Nth frame of the recording")
+      ->capture_default_str();
   cmd->add_option("--tag-search", args->tag_search,
                   "tracking (video: regions around the tags of the frames before, full frames every 15; the default) or "
                   "every_frame (photo sets: a full-frame detection on each)");
