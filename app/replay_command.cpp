@@ -41,6 +41,7 @@ Result<PipelineOptions> ReplayOptions(const ReplayArgs& args) {
   }
   if (args.no_features) options->features.enabled = false;
   options->live_feedback = args.realtime;
+  options->features.background = args.realtime;
   return options;
 }
 

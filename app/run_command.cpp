@@ -42,10 +42,10 @@ Result<RunConfig> LoadConfig(const RunArgs& args) {
     config->record_dir = args.record_dir;
     config->results_dir = (std::filesystem::path(args.record_dir) / "results").string();
   }
-  // Live: feedback on every frame, and features tracked from the recording
-  // at the end, so that SIFT never holds up the live loop.
+  // Live: feedback on every frame, and features on a worker thread, so
+  // that SIFT never holds up the live loop.
   config->pipeline.live_feedback = true;
-  config->pipeline.features.defer = true;
+  config->pipeline.features.background = true;
   return config;
 }
 

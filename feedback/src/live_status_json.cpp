@@ -67,6 +67,12 @@ std::string LiveStatusJson(const LiveStatus& s) {
   nlohmann::json kinds = nlohmann::json::array();
   for (const auto& w : s.warnings) kinds.push_back(w.kind);
   j["warning_kinds"] = kinds;
+  j["feature_points"] = s.feature_points;
+  nlohmann::json cloud = nlohmann::json::array();
+  for (const Eigen::Vector3f& p : s.cloud_sample) cloud.push_back({p.x(), p.y(), p.z()});
+  j["cloud"] = std::move(cloud);
+  j["feature_keyframes"] = s.feature_keyframes;
+  j["feature_work_dropped"] = s.feature_work_dropped;
   return j.dump();
 }
 

@@ -32,19 +32,16 @@ struct Pipeline::State {
   std::unique_ptr<Reconstructor> recon;  // once the camera is known
   std::unique_ptr<FeatureStage> features;
   std::optional<LiveFeedback> feedback;
-  // Kept until Finish: tags of frames seen before the intrinsics were
-  // known, and feature keyframes to track from the recording.
+  // Kept until Finish: tags of frames seen before the intrinsics were known.
   std::vector<std::pair<DetectionSet, std::int64_t>> uncalibrated;
-  std::vector<DetectionSet> deferred_keyframes;
   int width = 0, height = 0;
   RunStats stats;
   std::vector<std::string> warnings;
 
   Status StartReconstruction(const CameraModel& known_camera, bool refine_intrinsics);
   void Reconstruct(const DetectionSet& detections, std::int64_t timestamp_ns, const Frame* frame, FrameOutput* out);
-  void TrackFeatures(const Frame& frame, const DetectionSet& detections);
+  void ShowCloud(LiveStatus* status) const;
   Status Calibrate();
-  void TrackDeferredKeyframes();
 };
 
 Status Pipeline::State::StartReconstruction(const CameraModel& known_camera, bool refine_intrinsics) {
@@ -55,7 +52,7 @@ Status Pipeline::State::StartReconstruction(const CameraModel& known_camera, boo
   if (!created) return MakeError(input.where + ": " + created.error().message);
   recon = std::move(*created);
   if (options.features.enabled) {
-    auto stage = FeatureStage::Create(known_camera, input.info.targets, options.features);
+    auto stage = FeatureStage::Create(known_camera, options.features, options.live_feedback);
     if (!stage) return stage.error();
     features = std::move(*stage);
   }
@@ -86,7 +83,12 @@ Pipeline::~Pipeline() = default;
 
 const std::optional<CameraModel>& Pipeline::camera() const { return state_->camera; }
 
-std::vector<std::string> Pipeline::TakeWarnings() { return std::exchange(state_->warnings, {}); }
+std::vector<std::string> Pipeline::TakeWarnings() {
+  if (state_->features) {
+    for (std::string& w : state_->features->TakeWarnings()) state_->warnings.push_back(std::move(w));
+  }
+  return std::exchange(state_->warnings, {});
+}
 
 FrameOutput Pipeline::Skip(FrameId frame, const std::string& why) {
   ++state_->stats.frames;
@@ -130,22 +132,22 @@ void Pipeline::State::Reconstruct(const DetectionSet& detections, std::int64_t t
   const FrameReport report = recon->AddFrame(detections);
   stats.frame_latency_ms.push_back(MsSince(t0));
   if (features && features->SelectKeyframe(report)) {
-    if (frame && !options.features.defer) {
-      TrackFeatures(*frame, detections);
-    } else {
-      deferred_keyframes.push_back(detections);
-    }
+    features->AddKeyframe(frame, detections, report, recon->MappedTargetCorners());
   }
-  if (feedback) out->status = feedback->Update(detections, report, timestamp_ns);
+  if (feedback) {
+    out->status = feedback->Update(detections, report, timestamp_ns);
+    ShowCloud(&*out->status);
+  }
   out->report = report;
 }
 
-void Pipeline::State::TrackFeatures(const Frame& frame, const DetectionSet& detections) {
-  const auto t0 = std::chrono::steady_clock::now();
-  if (Status s = features->Track(frame.gray, frame.image, detections); !s) {
-    warnings.push_back("frame " + std::to_string(detections.frame) + ": features: " + s.error().message);
-  }
-  stats.feature_ms.push_back(MsSince(t0));
+void Pipeline::State::ShowCloud(LiveStatus* status) const {
+  if (!features) return;
+  LiveCloud cloud = features->live_cloud();
+  status->feature_points = cloud.points;
+  status->cloud_sample = std::move(cloud.sample);
+  status->feature_keyframes = cloud.keyframes;
+  status->feature_work_dropped = cloud.dropped;
 }
 
 Status Pipeline::State::Calibrate() {
@@ -163,27 +165,21 @@ Status Pipeline::State::Calibrate() {
   return Status::Ok();
 }
 
-void Pipeline::State::TrackDeferredKeyframes() {
-  for (const DetectionSet& detections : deferred_keyframes) {
-    auto frame = input.reload ? input.reload(detections.frame) : Result<Frame>(MakeError("no way to read it again"));
-    if (!frame) {
-      warnings.push_back("frame " + std::to_string(detections.frame) + ": features: " + frame.error().message);
-      continue;
-    }
-    TrackFeatures(*frame, detections);
-  }
-  deferred_keyframes.clear();
-}
-
 Result<PipelineResult> Pipeline::Finish() {
   State& s = *state_;
   if (!s.recon) {
     if (Status status = s.Calibrate(); !status) return status.error();
   }
   PipelineResult out;
-  s.TrackDeferredKeyframes();
   Reconstructor::PointTriangulation triangulate;
   if (s.features) {
+    s.features->Complete(s.input.reload);
+    s.stats.feature_ms = s.features->keyframe_ms();
+    s.stats.feature_work_dropped = s.features->dropped();
+    if (s.stats.feature_work_dropped > 0) {
+      s.warnings.push_back("features: " + std::to_string(s.stats.feature_work_dropped) +
+                           " keyframes could not be processed live; done from the recording at the end");
+    }
     triangulate = [&s](const PoseMap& poses, const CameraModel& camera) {
       const auto t0 = std::chrono::steady_clock::now();
       auto points = s.features->Triangulate(poses, camera);

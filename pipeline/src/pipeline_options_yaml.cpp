@@ -80,20 +80,55 @@ void ReadRecon(YamlFields f, ReconstructorOptions* o) {
   f.Done();
 }
 
+void ReadExtractor(YamlFields f, FeatureExtractorOptions* o) {
+  f.Read("max_features", &o->max_features);
+  f.Read("contrast_threshold", &o->contrast_threshold);
+  f.Read("root_sift", &o->root_sift);
+  f.Read("tag_margin", &o->tag_margin);
+  f.Read("image_scale", &o->image_scale);
+  f.Done();
+}
+
+void ReadMatcher(YamlFields f, GuidedMatcherOptions* o) {
+  f.Read("epipolar_px", &o->epipolar_px);
+  f.Read("ratio", &o->ratio);
+  f.Read("max_descriptor_distance", &o->max_descriptor_distance);
+  f.Read("grid_cell_px", &o->grid_cell_px);
+  f.Done();
+}
+
+void ReadTriangulation(YamlFields f, TrackTriangulationOptions* o) {
+  f.Read("min_views", &o->min_views);
+  f.Read("min_angle_deg", &o->min_angle_deg);
+  f.Read("max_view_error_px", &o->max_view_error_px);
+  f.Read("max_reprojection_rms_px", &o->max_reprojection_rms_px);
+  f.Read("feature_sigma_px", &o->feature_sigma_px);
+  f.Read("max_relative_sigma", &o->max_relative_sigma);
+  f.Read("max_iterations", &o->max_iterations);
+  f.Done();
+}
+
+void ReadFeatureMap(YamlFields f, FeatureMapOptions* o) {
+  ReadMatcher(f.Block("matcher"), &o->matcher);
+  ReadTriangulation(f.Block("triangulation"), &o->triangulation);
+  f.Read("max_neighbours", &o->max_neighbours);
+  f.Read("min_overlap", &o->min_overlap);
+  f.Read("max_view_angle_deg", &o->max_view_angle_deg);
+  f.Done();
+}
+
 void ReadFeatures(YamlFields f, FeatureStageOptions* o) {
   f.Read("enabled", &o->enabled);
-  f.Read("defer", &o->defer);
+  f.Read("background", &o->background);
+  f.Read("max_queued_keyframes", &o->max_queued_keyframes);
+  ReadExtractor(f.Block("extractor"), &o->extractor);
+  ReadFeatureMap(f.Block("map"), &o->map);
   f.Read("max_feature_image_side", &o->max_feature_image_side);
-  f.Read("max_features", &o->tracker.max_features);
-  f.Read("ratio", &o->tracker.ratio);
-  f.Read("epipolar_px", &o->tracker.epipolar_px);
-  f.Read("min_matches", &o->tracker.min_matches);
-  f.Read("tag_margin", &o->tracker.tag_margin);
-  f.Read("image_scale", &o->tracker.image_scale);
-  f.Read("min_track_length", &o->triangulation.min_track_length);
-  f.Read("min_angle_deg", &o->triangulation.min_angle_deg);
-  f.Read("max_reprojection_px", &o->triangulation.max_reprojection_px);
-  f.Read("max_iterations", &o->triangulation.max_iterations);
+  f.Read("depth_range_factor", &o->depth_range_factor);
+  f.Read("fallback_near_m", &o->fallback_near_m);
+  f.Read("fallback_far_m", &o->fallback_far_m);
+  f.Read("live_cloud_interval_s", &o->live_cloud_interval_s);
+  f.Read("live_cloud_max_points", &o->live_cloud_max_points);
   f.Done();
 }
 

@@ -799,4 +799,10 @@ void Reconstructor::CollectReprojectionStatistics(const std::vector<FrameState*>
   result->observations = n_all;
 }
 
+TargetCornerMap Reconstructor::MappedTargetCorners() const {
+  TargetCornerMap corners;
+  for (const auto& [id, tag] : tags_) corners[id] = tag.CornersInWorld();
+  return corners;
+}
+
 }  // namespace tagsfm

@@ -21,7 +21,7 @@ cv::Mat Texture(int width, int height, unsigned seed) {
 
 // An image shifted by exactly (+7, -4) px: features at the same texture
 // move by that, with no offset (OpenCV's +0.25 px is removed at both ends,
-// so a shift cannot show it; a zoom can: see FeatureTracker's test). Here:
+// so a shift cannot show it; a zoom can: see extractor_pixel_convention_test.cpp). Here:
 // the descriptors of corresponding features are near, and nearest.
 TEST(FeatureExtractor, ShiftedImageGivesShiftedFeaturesWithCloseDescriptors) {
   const cv::Mat first = Texture(640, 480, 3);

@@ -31,7 +31,8 @@ TEST_F(PipelineOptionsFile, ValuesReachTheirStructsAndTheRestKeepDefaults) {
       "  detector: {quad_decimate: 1.5, refinement: apriltag}\n"
       "  tracker: {full_frame_every: 7}\n"
       "  recon:\n    keyframe_min_rotation_deg: 2.5\n    pose: {max_rms_px: 3}\n    ba: {window_keyframes: 5}\n"
-      "  features: {enabled: false, max_features: 500, min_track_length: 4}\n"
+      "  features: {enabled: false, depth_range_factor: 3, extractor: {max_features: 500},\n"
+      "             map: {max_neighbours: 5, triangulation: {min_views: 3}}}\n"
       "  feedback: {point_error_goal_m: 0.002}\n");
   ASSERT_TRUE(options) << options.error().message;
   const PipelineOptions defaults;
@@ -45,8 +46,11 @@ TEST_F(PipelineOptionsFile, ValuesReachTheirStructsAndTheRestKeepDefaults) {
   EXPECT_EQ(options->recon.ba.window_keyframes, 5);
   EXPECT_DOUBLE_EQ(options->recon.ba.huber_px, defaults.recon.ba.huber_px);
   EXPECT_FALSE(options->features.enabled);
-  EXPECT_EQ(options->features.tracker.max_features, 500);
-  EXPECT_EQ(options->features.triangulation.min_track_length, 4);
+  EXPECT_EQ(options->features.extractor.max_features, 500);
+  EXPECT_EQ(options->features.map.max_neighbours, 5);
+  EXPECT_EQ(options->features.map.triangulation.min_views, 3);
+  EXPECT_DOUBLE_EQ(options->features.depth_range_factor, 3.0);
+  EXPECT_DOUBLE_EQ(options->features.map.matcher.ratio, defaults.features.map.matcher.ratio);
   EXPECT_DOUBLE_EQ(options->feedback.point_error_goal_m, 0.002);
 }
 
@@ -67,8 +71,15 @@ TEST_F(PipelineOptionsFile, WrongValuesNameTheFileAndTheField) {
             f + "pipeline.tracker.full_frame_every: expected a whole number");
   EXPECT_EQ(ErrorOf("pipeline:\n  tracker: {ful_frame_every: 2}\n"), f + "pipeline.tracker.ful_frame_every: unknown field");
   EXPECT_EQ(ErrorOf("pipeline:\n  features: {enabled: maybe}\n"), f + "pipeline.features.enabled: expected true or false");
-  EXPECT_EQ(ErrorOf("pipeline:\n  features: {min_track_length: 1}\n"),
-            f + "pipeline.features.min_track_length must be >= 2");
+  EXPECT_EQ(ErrorOf("pipeline:\n  features: {map: {triangulation: {min_views: 1}}}\n"),
+            f + "pipeline.features.map.triangulation.min_views must be >= 2");
+  EXPECT_EQ(ErrorOf("pipeline:\n  features: {map: {matcher: {ratio: 2}}}\n"),
+            f + "pipeline.features.map.matcher.ratio must be in (0, 1]");
+  EXPECT_EQ(ErrorOf("pipeline:\n  features: {map: {min_overlap: 2}}\n"), f + "pipeline.features.map.min_overlap must be in [0, 1]");
+  EXPECT_EQ(ErrorOf("pipeline:\n  features: {extractor: {image_scale: 0}}\n"),
+            f + "pipeline.features.extractor.image_scale must be in (0.1, 1]");
+  EXPECT_EQ(ErrorOf("pipeline:\n  features: {depth_range_factor: 1}\n"),
+            f + "pipeline.features.depth_range_factor must be in (1, 1000)");
   EXPECT_EQ(ErrorOf("pipeline:\n  feedback: {point_error_goal_m: .nan}\n"),
             f + "pipeline.feedback.point_error_goal_m: expected a number");
   EXPECT_EQ(ErrorOf("pipeline:\n  detector: 3\n"), f + "pipeline.detector: expected a block of fields");
@@ -98,8 +109,12 @@ TEST_F(PipelineOptionsFile, TheDocumentedBlockReadsAndHoldsTheDefaults) {
   EXPECT_DOUBLE_EQ(options->recon.keyframe_min_translation_ratio, defaults.recon.keyframe_min_translation_ratio);
   EXPECT_DOUBLE_EQ(options->recon.pose.ransac_threshold_px, defaults.recon.pose.ransac_threshold_px);
   EXPECT_EQ(options->recon.ba.window_keyframes, defaults.recon.ba.window_keyframes);
-  EXPECT_EQ(options->features.tracker.max_features, defaults.features.tracker.max_features);
-  EXPECT_DOUBLE_EQ(options->features.triangulation.min_angle_deg, defaults.features.triangulation.min_angle_deg);
+  EXPECT_EQ(options->features.extractor.max_features, defaults.features.extractor.max_features);
+  EXPECT_DOUBLE_EQ(options->features.extractor.contrast_threshold, defaults.features.extractor.contrast_threshold);
+  EXPECT_DOUBLE_EQ(options->features.map.triangulation.min_angle_deg, defaults.features.map.triangulation.min_angle_deg);
+  EXPECT_DOUBLE_EQ(options->features.map.triangulation.max_relative_sigma,
+                   defaults.features.map.triangulation.max_relative_sigma);
+  EXPECT_DOUBLE_EQ(options->features.depth_range_factor, defaults.features.depth_range_factor);
   EXPECT_DOUBLE_EQ(options->feedback.point_error_goal_m, defaults.feedback.point_error_goal_m);
 }
 

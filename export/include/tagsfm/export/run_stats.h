@@ -22,6 +22,7 @@ struct RunStats {
   int tag_search_recoveries = 0;        // of those, after a tracked tag was not where predicted
   std::vector<double> feature_ms;       // feature tracking per feature keyframe
   double triangulation_s = 0;           // feature points from the final poses
+  int feature_work_dropped = 0;         // feature keyframes not processed live (done at the end)
   double peak_rss_mb = 0;
   std::map<FrameId, std::string> image_names;  // for colmap/images.txt
   std::string mode;                     // "known map", "no map", ...

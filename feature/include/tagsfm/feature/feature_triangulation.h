@@ -17,7 +17,7 @@
 #include "tagsfm/core/csv_formats.h"
 #include "tagsfm/core/result.h"
 #include "tagsfm/core/rigid3d.h"
-#include "tagsfm/feature/feature_tracker.h"
+#include "tagsfm/feature/feature_set.h"
 
 namespace tagsfm {
 

@@ -8,6 +8,8 @@
 #include <string>
 #include <vector>
 
+#include <Eigen/Core>
+
 #include "tagsfm/feedback/coverage.h"
 #include "tagsfm/feedback/live_map.h"
 #include "tagsfm/recon/reconstructor.h"
@@ -53,6 +55,12 @@ struct LiveStatus {
   int min_views_per_target = 0;
   double min_direction_spread_deg = 0;
   std::vector<LiveWarning> warnings;                 // most important first
+
+  // The live cloud (pipeline/feature_stage.h), filled by the pipeline.
+  int feature_points = 0;                            // feature points triangulated so far
+  std::vector<Eigen::Vector3f> cloud_sample;         // at most 2000 of them, world frame, metres
+  int feature_keyframes = 0;                         // keyframes in the feature map so far
+  int feature_work_dropped = 0;                      // keyframes whose feature work was dropped live
 };
 
 class LiveFeedback {

@@ -28,7 +28,7 @@ using FrameLoader = std::function<Result<Frame>(FrameId)>;
 struct PipelineInput {
   RecordingInfo info;                       // no camera: calibrated from the targets at Finish
   std::optional<TargetCornerMap> known_map;  // targets held fixed
-  FrameLoader reload;                       // needed for deferred features and calibration
+  FrameLoader reload;                       // needed for feature work dropped live and calibration
   std::string where = "recording.yaml";     // the file the info came from, for messages
 };
 

@@ -103,6 +103,9 @@ class Reconstructor {
   std::map<TagId, QuadCorners> PredictTagCorners(FrameId frame, const CornerPredictionOptions& options = {}) const;
 
   size_t mapped_tags() const { return tags_.size(); }
+  // The mapped targets' corners in the world frame as they stand now (the
+  // feature stage takes the depth range of a keyframe's scene from them).
+  TargetCornerMap MappedTargetCorners() const;
   size_t frames() const { return frames_.size(); }
 
  private:
