@@ -96,7 +96,7 @@ double ScaleSigmaRel(const std::filesystem::path& dir) {
   auto text = ReadFileToString(dir / "report.json");
   if (!text) return 0.0;
   const nlohmann::json report = nlohmann::json::parse(*text, nullptr, /*allow_exceptions=*/false);
-  if (!report.is_object() || !report.contains("scale") || !report["scale"]["sigma_rel"].is_number()) return 0.0;
+  if (!report.is_object() || !report.contains("scale") || !report["scale"].is_object() || !report["scale"]["sigma_rel"].is_number()) return 0.0;
   return report["scale"]["sigma_rel"].get<double>();
 }
 

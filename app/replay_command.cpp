@@ -132,7 +132,7 @@ void AddReplayCommand(CLI::App& app, int& exit_code) {
   cmd->add_flag("--no-features", args->no_features, "targets only (photogrammetry alone): no SIFT feature points");
   cmd->add_flag("--no-targets", args->no_targets,
                 "feature SfM alone, the SfM-only baseline: SIFT on every frame, incremental mapping with the "
-                "recording's intrinsics fixed, arbitrary scale (report.json: \"scale\": \"arbitrary\")");
+                "recording's intrinsics fixed, arbitrary scale (report.json: \"scale_kind\": \"arbitrary\")");
   cmd->add_option("--frame-step", args->frame_step, "with --no-targets: every Nth frame of the recording")
       ->capture_default_str();
   cmd->add_option("--tag-search", args->tag_search,

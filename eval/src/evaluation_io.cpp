@@ -207,7 +207,7 @@ Result<std::string> EvaluateDirectoriesJson(const fs::path& out_dir, const fs::p
     if (report.is_discarded()) return MakeError(report_path.string() + ": not valid JSON");
   }
 
-  if (report.is_object() && report.contains("scale") && report["scale"]["sigma_rel"].is_number()) {
+  if (report.is_object() && report.contains("scale") && report["scale"].is_object() && report["scale"]["sigma_rel"].is_number()) {
     in.scale_sigma_rel = report["scale"]["sigma_rel"].get<double>();
   }
   json out = EvaluationJson(Evaluate(in));

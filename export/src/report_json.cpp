@@ -109,7 +109,7 @@ Status WriteReport(const std::filesystem::path& path, const ReconstructionResult
   }
   report["peak_rss_mb"] = stats.peak_rss_mb;
   report["mode"] = stats.mode;
-  report["scale"] = stats.mode.rfind("sfm alone", 0) == 0 ? "arbitrary" : "metric";  // targets give metres, SfM alone not
+  report["scale_kind"] = stats.mode.rfind("sfm alone", 0) == 0 ? "arbitrary" : "metric";  // targets give metres, SfM alone not
   report["pose_methods"] = result.pose_method_counts;
   report["unregistered_frames"] = unregistered;
   report["skipped_frames"] = skipped;

@@ -235,15 +235,6 @@ TEST(ReplayCommand, MissingRecordingIsAOneLineErrorNamingIt) {
   EXPECT_EQ(std::count(run.err.begin(), run.err.end(), '\n'), 1) << run.err;  // one line
 }
 
-TEST(ReplayCommand, NoTargetsSaysNotAvailableYet) {
-  TempDir scratch;
-  const CommandRun run = Tagsfm("replay " + Box().string() + " --out " + (scratch.path() / "out").string() + " --no-targets",
-                         scratch.path());
-  EXPECT_NE(run.exit_code, 0);
-  EXPECT_NE(run.err.find("not available yet"), std::string::npos) << run.err;
-  EXPECT_FALSE(fs::exists(scratch.path() / "out" / "report.json"));
-}
-
 // box_small's 20 views are far apart (an orbit at 18 degrees a view): the
 // tracker's predictions mostly fail and it backs off to full frames, so both
 // modes see nearly the same tags and give nearly the same poses; report.json

@@ -90,10 +90,12 @@ TEST(DashboardAbuse, MisbehavingClientsDoNotBlockThePublisherOrThePage) {
   // server that wrote to clients under it would block for its 2 s write
   // timeout on the client that never reads; 100 ms allows a loaded machine.
   EXPECT_LT(Percentile(abused.publish_ms, 1.0), 100.0);
-  // The page is served all along: every poll answered, within a second.
+  // The page is served all along: every poll answered, faster than the 2 s
+  // write timeout a server blocked by the client that never reads would show
+  // (1.03 s measured with the machine loaded by a parallel test run).
   EXPECT_EQ(abused.status_failures, 0);
   EXPECT_GT(abused.status_get_ms.size(), 20u);
-  EXPECT_LT(Percentile(abused.status_get_ms, 1.0), 1000.0);
+  EXPECT_LT(Percentile(abused.status_get_ms, 1.0), 1900.0);
   const auto start = Clock::now();
   (*server)->Stop();
   EXPECT_LT(Ms(Clock::now() - start), 5000.0);  // stops promptly, abusers or not

@@ -157,7 +157,10 @@ ScaleRun RenderWithScaleBar(const std::filesystem::path& dir, double print_scale
 // sigma of a bar between two tags 1.9 m apart was 1.6 mm (845 ppm) on seed
 // 1, and the scale came out 1056 ppm off (docs/recon.md). Two seeds, one
 // with lens distortion.
-TEST(ScaleBarsSlow, OneBarFixesAPrinterThatPrintsHalfAPercentTooLarge) {
+// Never run before the session that wrote it ended (a machine at load 20):
+// disabled until it has run once and its bounds are checked; run it with
+// --gtest_also_run_disabled_tests.
+TEST(ScaleBarsSlow, DISABLED_OneBarFixesAPrinterThatPrintsHalfAPercentTooLarge) {
   for (const auto& [seed, lens] : std::vector<std::pair<int, std::string>>{{3, ""}, {8, " --distortion -0.05,0.01,0,0"}}) {
     testing::TempDir scratch;
     const ScaleRun run = RenderWithScaleBar(scratch.path(), 1.005, seed, lens);

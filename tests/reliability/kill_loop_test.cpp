@@ -107,7 +107,10 @@ class KillLoopSlow : public ::testing::Test {
   std::mt19937 random_{kSeed};
 };
 
-TEST_F(KillLoopSlow, RecordKilledAtRandomKeepsEveryListedFrameAndReplays) {
+// Never run before the session that wrote it ended (a machine at load 20):
+// disabled until it has run once and its bounds are checked; run it with
+// --gtest_also_run_disabled_tests.
+TEST_F(KillLoopSlow, DISABLED_RecordKilledAtRandomKeepsEveryListedFrameAndReplays) {
   // 120 frames: long enough that most kills land while frames are written.
   MakeSource(6);
   const std::string exe = testing::TagsfmExe().string();
@@ -142,7 +145,7 @@ TEST_F(KillLoopSlow, RecordKilledAtRandomKeepsEveryListedFrameAndReplays) {
               frames_checked, whole_s);
 }
 
-TEST_F(KillLoopSlow, RunKilledAtRandomKeepsFramesAndNeverHalfAResult) {
+TEST_F(KillLoopSlow, DISABLED_RunKilledAtRandomKeepsFramesAndNeverHalfAResult) {
   // 40 frames: each kill's replay stays short.
   MakeSource(2);
   const std::string exe = testing::TagsfmExe().string();
@@ -178,7 +181,7 @@ TEST_F(KillLoopSlow, RunKilledAtRandomKeepsFramesAndNeverHalfAResult) {
   std::printf("run: %d kills, %d left result files (all whole), whole run %.2f s\n", kills, with_results, whole_s);
 }
 
-TEST_F(KillLoopSlow, ReplayKilledWhileWritingNeverLeavesHalfAResult) {
+TEST_F(KillLoopSlow, DISABLED_ReplayKilledWhileWritingNeverLeavesHalfAResult) {
   // Kills drawn over the last 40 % of a whole replay's time, where the
   // final adjustment ends and the results are written.
   const std::string cmd = testing::TagsfmExe().string();

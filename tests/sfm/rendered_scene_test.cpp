@@ -103,7 +103,10 @@ synth::SynthOptions Small(const std::string& scene, const std::string& path, uns
 // after the similarity fit (about 4 px of the image at the far end), and
 // the points on the true surfaces as the hybrid's are at this size
 // (FeatureMapSlow: > 70 % within 2 mm); measured figures in docs/features.md.
-TEST(SfmRenderedSlow, PosesAndPointsMatchTheTruthAcrossScenes) {
+// Never run before the session that wrote it ended (a machine at load 20):
+// disabled until it has run once and its bounds are checked; run it with
+// --gtest_also_run_disabled_tests.
+TEST(SfmRenderedSlow, DISABLED_PosesAndPointsMatchTheTruthAcrossScenes) {
   std::vector<synth::SynthOptions> cases = {Small("box", "orbit", 3), Small("box", "orbit", 7), Small("wall", "orbit", 5),
                                             Small("box", "photos", 9)};
   cases[0].max_azimuth_deg = 35;

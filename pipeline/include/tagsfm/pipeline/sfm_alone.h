@@ -27,7 +27,7 @@ struct SfmAloneOptions {
   Status Check() const;  // names the wrong field
 };
 
-// The mode report.json names for these runs (its "scale" is then "arbitrary").
+// The mode report.json names for these runs (its "scale_kind" is then "arbitrary").
 inline constexpr const char* kSfmAloneMode = "sfm alone";
 
 // Reads the frames, extracts features, reconstructs. Unreadable frames are
