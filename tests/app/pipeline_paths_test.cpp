@@ -54,8 +54,8 @@ void ExpectSameResults(const fs::path& a, const fs::path& b) {
   auto cloud_b = eval::ReadPlyPoints(b / "cloud.ply");
   ASSERT_TRUE(cloud_a && cloud_b);
   ASSERT_GT(cloud_a->size(), 4 * targets_a->size() + 100) << "too few feature points to compare";
-  const double a = static_cast<double>(cloud_a->size()), b = static_cast<double>(cloud_b->size());
-  EXPECT_LT(std::abs(a - b), kSamePointShare * a) << "points: " << a << " and " << b;
+  const double count_a = static_cast<double>(cloud_a->size()), count_b = static_cast<double>(cloud_b->size());
+  EXPECT_LT(std::abs(count_a - count_b), kSamePointShare * count_a) << "points: " << count_a << " and " << count_b;
   // The target corners come first, in one order.
   double worst = 0;
   for (size_t i = 0; i < 4 * targets_a->size(); ++i) worst = std::max(worst, ((*cloud_a)[i] - (*cloud_b)[i]).norm());
