@@ -9,7 +9,7 @@
 // options: --max-features N --contrast C --plain-sift 0|1 --image-scale S --epipolar PX --ratio R
 //          --max-distance D --neighbours N --min-overlap S --max-view-angle DEG --min-angle DEG
 //          --max-view-error PX --max-rms PX --max-relative-sigma S --feature-sigma PX --min-views N
-//          --refine 0|1 --refined-sigma PX --half-window N --min-correlation C --max-fit-sigma PX --depth-factor F --every N
+//          --refine 0|1 --refined-sigma PX --half-window N --min-correlation C --max-fit-sigma PX --depth-factor F --every N --threads N
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -154,6 +154,7 @@ struct BenchOptions {
   FeatureMapOptions map;
   double depth_factor = 2.0;
   int every = 1;
+  int threads = 1;  // for the triangulation and refinement
 };
 
 // "--name value" pairs after the mode's arguments; false on an unknown name.
@@ -185,6 +186,7 @@ bool ParseOptions(int argc, char** argv, int first, BenchOptions& o) {
     else if (name == "--max-fit-sigma") o.map.refinement.max_sigma_px = v;
     else if (name == "--depth-factor") o.depth_factor = v;
     else if (name == "--every") o.every = static_cast<int>(v);
+    else if (name == "--threads") o.threads = static_cast<int>(v);
     else {
       std::cerr << "unknown option " << name << "\n";
       return false;
@@ -244,7 +246,7 @@ Result<MapRun> RunMap(const Input& in, const BenchOptions& o) {
   }
   const auto t0 = std::chrono::steady_clock::now();
   run.tracks = map->Tracks();
-  run.points = map->Triangulate(run.poses, in.camera);
+  run.points = map->Triangulate(run.poses, in.camera, o.threads);
   run.triangulate_ms = Ms(t0);
   return run;
 }

@@ -6,6 +6,7 @@
 #include <unordered_map>
 
 #include "tagsfm/feature/track_refinement.h"
+#include "parallel_for.h"
 
 namespace tagsfm {
 
@@ -206,13 +207,13 @@ std::vector<FeatureTrack> FeatureMap::Tracks() const {
   return tracks;
 }
 
-std::vector<FeaturePoint> FeatureMap::Triangulate(const PoseMap& cam_from_world, const CameraModel& camera) const {
+std::vector<FeaturePoint> FeatureMap::Triangulate(const PoseMap& cam_from_world, const CameraModel& camera, int threads) const {
   std::vector<FeatureTrack> tracks = Tracks();
-  if (!options_.refine) return TriangulateTracks(tracks, cam_from_world, camera, options_.triangulation);
+  if (!options_.refine) return TriangulateTracks(tracks, cam_from_world, camera, options_.triangulation, threads);
   // The first points only predict the warps: no sigma filter, SIFT's noise.
   TrackTriangulationOptions first_pass = options_.triangulation;
   first_pass.max_relative_sigma = 1.0;
-  const std::vector<FeaturePoint> first = TriangulateTracks(tracks, cam_from_world, camera, first_pass);
+  const std::vector<FeaturePoint> first = TriangulateTracks(tracks, cam_from_world, camera, first_pass, threads);
   std::unordered_map<FrameId, const cv::Mat*> images;
   for (const PosedKeyframe& k : keyframes_) images[k.features.frame] = &k.features.image;
   const KeyframeImageLookup image_of = [&](FrameId frame) -> const cv::Mat* {
@@ -220,17 +221,20 @@ std::vector<FeaturePoint> FeatureMap::Triangulate(const PoseMap& cam_from_world,
     return it == images.end() ? nullptr : it->second;
   };
   // Both sorted by track id; every point has its track.
-  std::vector<FeatureTrack> refined;
-  refined.reserve(first.size());
-  auto track = tracks.begin();
-  for (const FeaturePoint& p : first) {
-    while (track->id != p.track) ++track;
-    FeatureTrack r = RefineTrackViews(*track, p, cam_from_world, image_of, camera, options_.refinement);
-    if (!r.observations.empty()) refined.push_back(std::move(r));
+  std::vector<size_t> track_of(first.size());
+  for (size_t i = 0, t = 0; i < first.size(); ++i) {
+    while (tracks[t].id != first[i].track) ++t;
+    track_of[i] = t;
   }
+  std::vector<FeatureTrack> refined(first.size());
+  ParallelFor(first.size(), threads, [&](size_t i) {
+    refined[i] = RefineTrackViews(tracks[track_of[i]], first[i], cam_from_world, image_of, camera, options_.refinement);
+  });
+  refined.erase(std::remove_if(refined.begin(), refined.end(), [](const FeatureTrack& r) { return r.observations.empty(); }),
+                refined.end());
   TrackTriangulationOptions final_pass = options_.triangulation;
   final_pass.feature_sigma_px = options_.refined_feature_sigma_px;
-  return TriangulateTracks(refined, cam_from_world, camera, final_pass);
+  return TriangulateTracks(refined, cam_from_world, camera, final_pass, threads);
 }
 
 }  // namespace tagsfm

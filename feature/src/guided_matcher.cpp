@@ -132,9 +132,14 @@ double DistanceToSegment(const Eigen::Vector2d& p, const Eigen::Vector2d& a, con
   return (p - (a + t * d)).norm();
 }
 
+// Eight partial sums: a single running sum is a dependency chain the
+// compiler may not reorder (no -ffast-math), eight it vectorises.
 float DescriptorDistance(const float* a, const float* b) {
-  float dot = 0;
-  for (int k = 0; k < 128; ++k) dot += a[k] * b[k];
+  float partial[8] = {0, 0, 0, 0, 0, 0, 0, 0};
+  for (int k = 0; k < 128; k += 8) {
+    for (int l = 0; l < 8; ++l) partial[l] += a[k + l] * b[k + l];
+  }
+  const float dot = ((partial[0] + partial[1]) + (partial[2] + partial[3])) + ((partial[4] + partial[5]) + (partial[6] + partial[7]));
   return std::sqrt(std::max(0.0f, 2.0f - 2.0f * dot));
 }
 

@@ -30,6 +30,29 @@ inline double Sample(const cv::Mat& image, double x, double y) {
   return (1 - fy) * ((1 - fx) * r0[0] + fx * r0[1]) + fy * ((1 - fx) * r1[0] + fx * r1[1]);
 }
 
+// Bilinear grey value at (x, y) and its central differences over two
+// pixels, (S(x+1, y) - S(x-1, y)) / 2 and the same in y, from the 4x4
+// pixels round (x, y) read once; the caller keeps (x, y) two pixels inside.
+struct SampleWithSlope {
+  double value, gx, gy;
+};
+
+inline SampleWithSlope SampleAndSlope(const cv::Mat& image, double x, double y) {
+  const int x0 = static_cast<int>(std::floor(x)), y0 = static_cast<int>(std::floor(y));
+  const double fx = x - x0, fy = y - y0;
+  // rows[r][c]: pixel (x0 + c - 1, y0 + r - 1), each row interpolated in x
+  // at the sample's column and one column left and right.
+  double left[4], mid[4], right[4];
+  for (int r = 0; r < 4; ++r) {
+    const std::uint8_t* p = image.ptr<std::uint8_t>(y0 + r - 1) + x0 - 1;
+    left[r] = (1 - fx) * p[0] + fx * p[1];
+    mid[r] = (1 - fx) * p[1] + fx * p[2];
+    right[r] = (1 - fx) * p[2] + fx * p[3];
+  }
+  auto in_y = [&](const double* column, int row) { return (1 - fy) * column[row] + fy * column[row + 1]; };
+  return {in_y(mid, 1), 0.5 * (in_y(right, 1) - in_y(left, 1)), 0.5 * (in_y(mid, 2) - in_y(mid, 0))};
+}
+
 inline bool Inside(const cv::Mat& image, double x, double y, double margin) {
   return x >= margin && y >= margin && x <= image.cols - 1 - margin && y <= image.rows - 1 - margin;
 }
@@ -86,19 +109,17 @@ std::optional<PatchFit> RefinePatch(const cv::Mat& reference, const Eigen::Vecto
       // bilinear patch's own slope, measured in the tests) need a pixel on
       // each side, bilinear one more.
       if (!Inside(target, w.x(), w.y(), 2)) return std::nullopt;
-      const double s = Sample(target, w.x(), w.y());
-      const double gx = 0.5 * (Sample(target, w.x() + 1, w.y()) - Sample(target, w.x() - 1, w.y()));
-      const double gy = 0.5 * (Sample(target, w.x(), w.y() + 1) - Sample(target, w.x(), w.y() - 1));
+      const SampleWithSlope at = SampleAndSlope(target, w.x(), w.y());
+      const double s = at.value, gx = at.gx, gy = at.gy;
       warped[i] = s;
       const double r = templ[i] - (gain * s + offset);
       const double x = offsets[i].x(), y = offsets[i].y();
       Vector8d j;
       j << gain * gx, gain * gy, gain * gx * x, gain * gx * y, gain * gy * x, gain * gy * y, 1.0, s;
-      normal.selfadjointView<Eigen::Lower>().rankUpdate(j);
+      normal.noalias() += j * j.transpose();  // fixed size: unrolled, unlike rankUpdate
       rhs += j * r;
       sum_sq += r * r;
     }
-    normal = normal.selfadjointView<Eigen::Lower>();
     const Eigen::LDLT<Matrix8d> ldlt(normal);
     if (ldlt.info() != Eigen::Success) return std::nullopt;
     const Vector8d delta = ldlt.solve(rhs);

@@ -7,6 +7,8 @@
 
 #include <Eigen/Eigenvalues>
 
+#include "parallel_for.h"
+
 namespace tagsfm {
 
 Status TrackTriangulationOptions::Check() const {
@@ -111,22 +113,26 @@ std::optional<FeaturePoint> TriangulateOne(const FeatureTrack& track, std::vecto
 }  // namespace
 
 std::vector<FeaturePoint> TriangulateTracks(const std::vector<FeatureTrack>& tracks, const PoseMap& cam_from_world,
-                                            const CameraModel& camera, const TrackTriangulationOptions& options) {
-  std::vector<FeaturePoint> points;
-  std::vector<Eigen::Vector2d> pixels;
-  for (const FeatureTrack& track : tracks) {
+                                            const CameraModel& camera, const TrackTriangulationOptions& options, int threads) {
+  std::vector<std::optional<FeaturePoint>> slots(tracks.size());
+  ParallelFor(tracks.size(), threads, [&](size_t t) {
+    const FeatureTrack& track = tracks[t];
     std::vector<View> views;
-    pixels.clear();
+    std::vector<Eigen::Vector2d> pixels;
     for (const TrackObservation& o : track.observations) {
       const auto pose = cam_from_world.find(o.frame);
       if (pose == cam_from_world.end()) continue;
       views.push_back({{pose->second, Eigen::Vector3d::UnitZ()}, o});
       pixels.push_back(o.pixel);
     }
-    if (static_cast<int>(views.size()) < options.min_views) continue;
+    if (static_cast<int>(views.size()) < options.min_views) return;
     const std::vector<Eigen::Vector2d> normalized = camera.PixelsToNormalized(pixels);
     for (size_t i = 0; i < views.size(); ++i) views[i].ray.bearing = normalized[i].homogeneous().normalized();
-    if (auto p = TriangulateOne(track, std::move(views), camera, options)) points.push_back(std::move(*p));
+    slots[t] = TriangulateOne(track, std::move(views), camera, options);
+  });
+  std::vector<FeaturePoint> points;
+  for (std::optional<FeaturePoint>& p : slots) {
+    if (p) points.push_back(std::move(*p));
   }
   std::sort(points.begin(), points.end(), [](const FeaturePoint& a, const FeaturePoint& b) { return a.track < b.track; });
   return points;

@@ -223,7 +223,7 @@ void FeatureStage::Complete(const FeatureFrameLoader& reload) {
 }
 
 std::vector<FeaturePoint> FeatureStage::Triangulate(const PoseMap& cam_from_world, const CameraModel& camera) const {
-  return state_->map->Triangulate(cam_from_world, camera);
+  return state_->map->Triangulate(cam_from_world, camera, state_->options.finish_threads);
 }
 
 LiveCloud FeatureStage::live_cloud() const {

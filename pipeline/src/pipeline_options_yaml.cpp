@@ -108,9 +108,22 @@ void ReadTriangulation(YamlFields f, TrackTriangulationOptions* o) {
   f.Done();
 }
 
+void ReadRefinement(YamlFields f, PatchRefinementOptions* o) {
+  f.Read("half_window", &o->half_window);
+  f.Read("max_iterations", &o->max_iterations);
+  f.Read("converged_px", &o->converged_px);
+  f.Read("max_shift_px", &o->max_shift_px);
+  f.Read("min_correlation", &o->min_correlation);
+  f.Read("max_sigma_px", &o->max_sigma_px);
+  f.Done();
+}
+
 void ReadFeatureMap(YamlFields f, FeatureMapOptions* o) {
   ReadMatcher(f.Block("matcher"), &o->matcher);
   ReadTriangulation(f.Block("triangulation"), &o->triangulation);
+  f.Read("refine", &o->refine);
+  ReadRefinement(f.Block("refinement"), &o->refinement);
+  f.Read("refined_feature_sigma_px", &o->refined_feature_sigma_px);
   f.Read("max_neighbours", &o->max_neighbours);
   f.Read("min_overlap", &o->min_overlap);
   f.Read("max_view_angle_deg", &o->max_view_angle_deg);
@@ -129,6 +142,7 @@ void ReadFeatures(YamlFields f, FeatureStageOptions* o) {
   f.Read("fallback_far_m", &o->fallback_far_m);
   f.Read("live_cloud_interval_s", &o->live_cloud_interval_s);
   f.Read("live_cloud_max_points", &o->live_cloud_max_points);
+  f.Read("finish_threads", &o->finish_threads);
   f.Done();
 }
 

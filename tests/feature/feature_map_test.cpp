@@ -98,6 +98,13 @@ WalkResult RunWalk(const synth::SynthOptions& synth_options, bool shuffled) {
     r.tracks_with_gap += frames.back() - frames.front() + 1 > static_cast<FrameId>(frames.size());
   }
   const std::vector<FeaturePoint> points = map->Triangulate(poses, camera);
+  // Threads share out the tracks, each independent: bit for bit the same points.
+  const std::vector<FeaturePoint> threaded = map->Triangulate(poses, camera, 3);
+  EXPECT_EQ(threaded.size(), points.size());
+  for (size_t i = 0; i < std::min(points.size(), threaded.size()); ++i) {
+    EXPECT_EQ(threaded[i].track, points[i].track) << i;
+    EXPECT_EQ(threaded[i].position, points[i].position) << "track " << points[i].track;
+  }
   r.points = static_cast<int>(points.size());
   for (const FeaturePoint& p : points) {
     const double d = eval::DistanceToSurfaces(*surfaces, p.position);

@@ -80,6 +80,9 @@ TEST_F(PipelineOptionsFile, WrongValuesNameTheFileAndTheField) {
             f + "pipeline.features.extractor.image_scale must be in (0.1, 1]");
   EXPECT_EQ(ErrorOf("pipeline:\n  features: {depth_range_factor: 1}\n"),
             f + "pipeline.features.depth_range_factor must be in (1, 1000)");
+  EXPECT_EQ(ErrorOf("pipeline:\n  features: {map: {refinement: {half_window: 1}}}\n"),
+            f + "pipeline.features.map.refinement.half_window must be in [2, 32]");
+  EXPECT_EQ(ErrorOf("pipeline:\n  features: {finish_threads: 0}\n"), f + "pipeline.features.finish_threads must be in [1, 64]");
   EXPECT_EQ(ErrorOf("pipeline:\n  feedback: {point_error_goal_m: .nan}\n"),
             f + "pipeline.feedback.point_error_goal_m: expected a number");
   EXPECT_EQ(ErrorOf("pipeline:\n  detector: 3\n"), f + "pipeline.detector: expected a block of fields");
@@ -115,6 +118,11 @@ TEST_F(PipelineOptionsFile, TheDocumentedBlockReadsAndHoldsTheDefaults) {
   EXPECT_DOUBLE_EQ(options->features.map.triangulation.max_relative_sigma,
                    defaults.features.map.triangulation.max_relative_sigma);
   EXPECT_DOUBLE_EQ(options->features.depth_range_factor, defaults.features.depth_range_factor);
+  EXPECT_EQ(options->features.finish_threads, defaults.features.finish_threads);
+  EXPECT_EQ(options->features.map.refine, defaults.features.map.refine);
+  EXPECT_DOUBLE_EQ(options->features.map.refined_feature_sigma_px, defaults.features.map.refined_feature_sigma_px);
+  EXPECT_EQ(options->features.map.refinement.half_window, defaults.features.map.refinement.half_window);
+  EXPECT_DOUBLE_EQ(options->features.map.refinement.min_correlation, defaults.features.map.refinement.min_correlation);
   EXPECT_DOUBLE_EQ(options->feedback.point_error_goal_m, defaults.feedback.point_error_goal_m);
 }
 

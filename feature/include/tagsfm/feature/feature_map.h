@@ -69,8 +69,9 @@ class FeatureMap {
   // Tracks of two or more views, each view's feature index and pixel.
   std::vector<FeatureTrack> Tracks() const;
   // Points of every track from the final poses: with options.refine, the
-  // tracks' views are refined by least-squares matching first.
-  std::vector<FeaturePoint> Triangulate(const PoseMap& cam_from_world, const CameraModel& camera) const;
+  // tracks' views are refined by least-squares matching first. The same
+  // points for any number of `threads`.
+  std::vector<FeaturePoint> Triangulate(const PoseMap& cam_from_world, const CameraModel& camera, int threads = 1) const;
 
   int keyframes() const { return static_cast<int>(keyframes_.size()); }
   const PosedKeyframe& keyframe(int index) const { return keyframes_[static_cast<size_t>(index)]; }

@@ -53,8 +53,10 @@ struct TrackTriangulationOptions {
 // track is the track's id, its observations the views kept, its covariance
 // sigma^2 (J^T J)^-1 of the angular residuals with sigma the larger of its
 // reprojection RMS (corrected for the 3 fitted parameters) and
-// feature_sigma_px, over fx. Sorted by track id.
+// feature_sigma_px, over fx. Sorted by track id; the same for any number
+// of `threads` (tracks are independent).
 std::vector<FeaturePoint> TriangulateTracks(const std::vector<FeatureTrack>& tracks, const PoseMap& cam_from_world,
-                                            const CameraModel& camera, const TrackTriangulationOptions& options);
+                                            const CameraModel& camera, const TrackTriangulationOptions& options,
+                                            int threads = 1);
 
 }  // namespace tagsfm

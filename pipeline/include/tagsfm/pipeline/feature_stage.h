@@ -48,6 +48,9 @@ struct FeatureStageOptions {
   // often, and at most a quarter of the worker's time.
   double live_cloud_interval_s = 1.0;
   int live_cloud_max_points = 2000;
+  // Threads of the final triangulation and refinement (at Finish, when
+  // capture is over; the points are the same for any number).
+  int finish_threads = 2;
 
   Status Check() const;  // names the wrong field ("features.map.min_overlap ...")
 };
