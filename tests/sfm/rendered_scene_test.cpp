@@ -98,15 +98,26 @@ synth::SynthOptions Small(const std::string& scene, const std::string& path, uns
   return options;
 }
 
-// 640x360 (f = 500), 10 frames at 1.5-3 m: a pixel is 3-6 mm there. Bounds:
-// every frame registered, centres within 2 cm and rotations within 0.3 deg
-// after the similarity fit (about 4 px of the image at the far end), and
-// the points on the true surfaces as the hybrid's are at this size
-// (FeatureMapSlow: > 70 % within 2 mm); measured figures in docs/features.md.
-// Never run before the session that wrote it ended (a machine at load 20):
-// disabled until it has run once and its bounds are checked; run it with
-// --gtest_also_run_disabled_tests.
-TEST(SfmRenderedSlow, DISABLED_PosesAndPointsMatchTheTruthAcrossScenes) {
+// 640x360 (f = 500), 10 frames at 1.5-3 m: a pixel is 3-6 mm there.
+// Measured 2026-12-02 (docs/features.md, SfM alone; deterministic, 2-3 min
+// for the four): all 10/10 registered; centres within 0.21 / 0.61 / 0.25 /
+// 0.59 mm and rotations within 0.009 / 0.032 / 0.032 / 0.028 deg after the
+// similarity fit; 11,924 / 7,665 / 9,328 / 10,489 points, 43.7 / 39.8 /
+// 62.4 / 45.7 % within 2 mm and 69.6 / 66.4 / 88.1 / 71.8 % within 5 mm
+// (box orbit, box blurred and distorted, wall, box photos).
+// Bounds: centres within 3 mm (a pixel at the near end; 5x the worst),
+// rotations within 0.1 deg (0.9 px at f = 500; 3x the worst). The points
+// are SIFT's pixels triangulated with COLMAP's limits (1.5 deg, 4 px), not
+// the hybrid's refined ones, so the hybrid's > 85 % within 5 mm first
+// guessed here does not apply: on the box orbit the points seen from >= 12
+// deg apart are 86 % within 5 mm, those under 3 deg 26 %, and tracks of 6+
+// views 98 %, those of 2 views 58 %: SIFT's localisation noise (a fraction
+// of a pixel, itself 3-6 mm) along short baselines, not a bias. COLMAP's
+// own model of recordings/box_small (640x480) is 74 % within 5 mm, SfM
+// alone's 69 % (docs/features.md). So: > 55 % within
+// 5 mm and > 30 % within 2 mm (about 10 points under the worst measured),
+// more than 5,000 points (two thirds of the fewest).
+TEST(SfmRenderedSlow, PosesAndPointsMatchTheTruthAcrossScenes) {
   std::vector<synth::SynthOptions> cases = {Small("box", "orbit", 3), Small("box", "orbit", 7), Small("wall", "orbit", 5),
                                             Small("box", "photos", 9)};
   cases[0].max_azimuth_deg = 35;
@@ -117,10 +128,11 @@ TEST(SfmRenderedSlow, DISABLED_PosesAndPointsMatchTheTruthAcrossScenes) {
     const SceneScore s = RunScene(options);
     const std::string name = options.scene + "/" + options.path + " seed " + std::to_string(options.seed);
     EXPECT_EQ(s.registered, s.frames) << name;
-    EXPECT_LT(s.max_centre_error_m, 0.02) << name;
-    EXPECT_LT(s.max_rotation_deg, 0.3) << name;
-    EXPECT_GT(s.points, 1000) << name;
-    EXPECT_GT(s.within_5mm, 0.85) << name;
+    EXPECT_LT(s.max_centre_error_m, 0.003) << name;
+    EXPECT_LT(s.max_rotation_deg, 0.1) << name;
+    EXPECT_GT(s.points, 5000) << name;
+    EXPECT_GT(s.within_2mm, 0.30) << name;
+    EXPECT_GT(s.within_5mm, 0.55) << name;
   }
 }
 
