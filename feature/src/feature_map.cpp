@@ -207,6 +207,10 @@ std::vector<FeatureTrack> FeatureMap::Tracks() const {
   return tracks;
 }
 
+std::vector<FeaturePoint> FeatureMap::TriangulateCoarse(const PoseMap& cam_from_world, const CameraModel& camera) const {
+  return TriangulateTracks(Tracks(), cam_from_world, camera, options_.triangulation);
+}
+
 std::vector<FeaturePoint> FeatureMap::Triangulate(const PoseMap& cam_from_world, const CameraModel& camera, int threads) const {
   std::vector<FeatureTrack> tracks = Tracks();
   if (!options_.refine) return TriangulateTracks(tracks, cam_from_world, camera, options_.triangulation, threads);

@@ -48,7 +48,8 @@ FeatureTrack RefineTrackViews(const FeatureTrack& track, const FeaturePoint& poi
   };
   std::vector<View> views;
   Eigen::Vector3d mean_direction = Eigen::Vector3d::Zero();
-  for (const auto& [frame, pixel] : point.observations) {
+  for (const auto& observation : point.observations) {
+    const FrameId frame = observation.first;  // not a structured binding: clang 14 cannot capture one
     const auto pose = cam_from_world.find(frame);
     const cv::Mat* image = image_of(frame);
     if (pose == cam_from_world.end() || image == nullptr || image->empty()) continue;

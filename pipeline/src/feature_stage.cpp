@@ -101,7 +101,9 @@ void FeatureStage::State::UpdateCloud() {
   const auto t0 = Clock::now();
   PoseMap poses;
   for (int k = 0; k < map->keyframes(); ++k) poses[map->keyframe(k).features.frame] = map->keyframe(k).cam_from_world;
-  const std::vector<FeaturePoint> points = map->Triangulate(poses, camera);
+  // Without the refinement: its cost grows with every track and would
+  // stall the frames (found by the soak test); the final points have it.
+  const std::vector<FeaturePoint> points = map->TriangulateCoarse(poses, camera);
   LiveCloud fresh;
   fresh.points = static_cast<int>(points.size());
   fresh.keyframes = map->keyframes();

@@ -72,6 +72,9 @@ class FeatureMap {
   // tracks' views are refined by least-squares matching first. The same
   // points for any number of `threads`.
   std::vector<FeaturePoint> Triangulate(const PoseMap& cam_from_world, const CameraModel& camera, int threads = 1) const;
+  // The SIFT pixels triangulated, without the refinement and its filter: a
+  // coarse cloud at a small part of the cost (the live cloud's).
+  std::vector<FeaturePoint> TriangulateCoarse(const PoseMap& cam_from_world, const CameraModel& camera) const;
 
   int keyframes() const { return static_cast<int>(keyframes_.size()); }
   const PosedKeyframe& keyframe(int index) const { return keyframes_[static_cast<size_t>(index)]; }
