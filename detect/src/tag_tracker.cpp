@@ -27,6 +27,7 @@ Status TagTrackerOptions::Check() const {
     return MakeError("entry_band_tag_sizes must be in [0, 100]");
   }
   if (!(entry_band_margin_px >= 0.0)) return MakeError("entry_band_margin_px must be >= 0");
+  if (fine_search_below_tags < 0) return MakeError("fine_search_below_tags must be >= 0");
   if (!(entry_band_candidates_min_module_px >= 0.0)) {
     return MakeError("entry_band_candidates_min_module_px must be >= 0");
   }
@@ -35,9 +36,11 @@ Status TagTrackerOptions::Check() const {
 }
 
 TagTracker::TagTracker(TagTrackerOptions options, std::unique_ptr<TagDetector> full,
-                       std::vector<ThreadDetectors> per_thread, std::unique_ptr<detail::BandCandidates> candidates)
+                       std::unique_ptr<TagDetector> fine_full, std::vector<ThreadDetectors> per_thread,
+                       std::unique_ptr<detail::BandCandidates> candidates)
     : options_(options),
       full_detector_(std::move(full)),
+      fine_full_detector_(std::move(fine_full)),
       per_thread_(std::move(per_thread)),
       band_candidates_(std::move(candidates)),
       workers_(std::make_unique<detail::DetectionWorkers>(static_cast<int>(per_thread_.size()))) {}
@@ -49,6 +52,14 @@ Result<std::unique_ptr<TagTracker>> TagTracker::Create(const TagDetectorOptions&
   if (Status status = tracker.Check(); !status) return status.error();
   auto full = TagDetector::Create(detector);
   if (!full) return full.error();
+  std::unique_ptr<TagDetector> fine_full;
+  if (tracker.region_quad_decimate < detector.quad_decimate) {
+    TagDetectorOptions fine = detector;
+    fine.quad_decimate = tracker.region_quad_decimate;
+    auto created = TagDetector::Create(fine);
+    if (!created) return created.error();
+    fine_full = std::move(*created);
+  }
   // Regions and bands give libapriltag's corners; the full detector refines
   // them all at once, on its threads.
   TagDetectorOptions part = detector;
@@ -69,7 +80,7 @@ Result<std::unique_ptr<TagTracker>> TagTracker::Create(const TagDetectorOptions&
   std::unique_ptr<detail::BandCandidates> candidates;
   if (tracker.entry_band_candidates) candidates = detail::BandCandidates::Create(detector.family);
   return std::unique_ptr<TagTracker>(
-      new TagTracker(tracker, std::move(*full), std::move(per_thread), std::move(candidates)));
+      new TagTracker(tracker, std::move(*full), std::move(fine_full), std::move(per_thread), std::move(candidates)));
 }
 
 void TagTracker::Reset() {
@@ -280,7 +291,8 @@ void TagTracker::AddEntryBands(const cv::Size& image, std::vector<Search>* searc
     // Tags entering are taken to be about as small as the smallest in view.
     const bool by_candidates =
         band_candidates_ != nullptr && smallest_module_px >= options_.entry_band_candidates_min_module_px;
-    if (band.area() > 0) searches->push_back(Search{band, true, true, by_candidates, {}});
+    const bool coarse = !FewSmallTracked();
+    if (band.area() > 0) searches->push_back(Search{band, true, coarse, by_candidates, {}});
   }
 }
 
@@ -349,7 +361,7 @@ Result<DetectionSet> TagTracker::DetectFullFrame(const cv::Mat& gray8, FrameId f
   frames_since_full_ = 0;
   have_full_ = true;
   const auto start = std::chrono::steady_clock::now();
-  Result<DetectionSet> detections = full_detector_->Detect(gray8, frame);
+  Result<DetectionSet> detections = DetectWholeImage(gray8, frame);
   if (!detections) return detections;
   std::set<TagId> found;
   for (const TagDetection& tag : detections->tags) found.insert(tag.id);
@@ -366,6 +378,37 @@ Result<DetectionSet> TagTracker::DetectFullFrame(const cv::Mat& gray8, FrameId f
   }
   stats_.full_frame_ms += MsSince(start);
   return detections;
+}
+
+// Fewer than fine_search_below_tags tags, some with small modules: the
+// coarse decimation has likely missed others as small.
+bool TagTracker::FewSmallTags(const std::vector<TagDetection>& found) const {
+  if (static_cast<int>(found.size()) >= options_.fine_search_below_tags) return false;
+  const int modules = full_detector_->ModulesAcrossCornerSquare();
+  return std::any_of(found.begin(), found.end(), [&](const TagDetection& tag) {
+    return ModulePx(tag.corners, modules) < options_.region_coarse_module_px;
+  });
+}
+
+// The same test on the tags found on the last frame.
+bool TagTracker::FewSmallTracked() const {
+  if (static_cast<int>(tracks_.size()) >= options_.fine_search_below_tags) return false;
+  const int modules = full_detector_->ModulesAcrossCornerSquare();
+  return std::any_of(tracks_.begin(), tracks_.end(), [&](const auto& track) {
+    return ModulePx(track.second.corners, modules) < options_.region_coarse_module_px;
+  });
+}
+
+// The whole image at the detector's decimation, or at region_quad_decimate
+// when few, small tags are in view or found there.
+Result<DetectionSet> TagTracker::DetectWholeImage(const cv::Mat& gray8, FrameId frame) {
+  if (fine_full_detector_ == nullptr) return full_detector_->Detect(gray8, frame);
+  if (!FewSmallTracked()) {
+    Result<DetectionSet> coarse = full_detector_->Detect(gray8, frame);
+    if (!coarse || !FewSmallTags(coarse->tags)) return coarse;
+  }
+  ++stats_.fine_full_frame_detections;
+  return fine_full_detector_->Detect(gray8, frame);
 }
 
 Result<DetectionSet> TagTracker::Track(const cv::Mat& gray8, FrameId frame,

@@ -99,7 +99,8 @@ Status WriteReport(const std::filesystem::path& path, const ReconstructionResult
   if (!stats.tag_search.empty()) {
     report["tag_search"] = {{"mode", stats.tag_search},
                             {"full_frame_detections", stats.full_frame_detections},
-                            {"recoveries", stats.tag_search_recoveries}};
+                            {"recoveries", stats.tag_search_recoveries},
+                            {"fine_full_frame_detections", stats.fine_full_frame_detections}};
   }
   if (!stats.feature_ms.empty()) {
     report["feature_keyframes"] = stats.feature_ms.size();

@@ -190,6 +190,7 @@ Result<PipelineResult> Pipeline::Finish() {
   out.reconstruction = s.recon->Finish(triangulate);
   s.stats.full_frame_detections = s.tracker->stats().full_frame_detections;
   s.stats.tag_search_recoveries = s.tracker->stats().recoveries;
+  s.stats.fine_full_frame_detections = s.tracker->stats().fine_full_frame_detections;
   s.stats.runtime_s = MsSince(s.start) / 1000.0;
   s.stats.peak_rss_mb = PeakRssMb();
   out.stats = s.stats;

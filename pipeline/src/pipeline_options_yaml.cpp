@@ -32,6 +32,7 @@ void ReadTracker(YamlFields f, TagTrackerOptions* o) {
   f.Read("entry_band_candidates", &o->entry_band_candidates);
   f.Read("entry_band_candidates_min_module_px", &o->entry_band_candidates_min_module_px);
   f.Read("entry_min_inflow_px", &o->entry_min_inflow_px);
+  f.Read("fine_search_below_tags", &o->fine_search_below_tags);
   f.Read("back_off_after_recovery", &o->back_off_after_recovery);
   f.Done();
 }

@@ -11,7 +11,10 @@
 // or by libapriltag at the full-frame decimation), so that a tag entering
 // the view is found on the first frame it is wholly inside, as a full-frame
 // detection would find it; only tags not tracked already are kept from the
-// bands. A full-frame detection runs every `full_frame_every` frames
+// bands. Few, small tags: where fewer than fine_search_below_tags tags are
+// in view and some have modules under region_coarse_module_px, full-frame
+// passes and entry bands run at region_quad_decimate, which finds the small
+// and blurred tags the coarse decimation misses. A full-frame detection runs every `full_frame_every` frames
 // (tags appearing inside the view, e.g. from behind an occluder), and at once
 // on a frame where a predicted tag that should be wholly in view is not found
 // in its region, so that a tag is never lost to a bad prediction. When the
@@ -81,6 +84,15 @@ struct TagTrackerOptions {
   // per frame somewhere along it; slower borders (and a still camera) are
   // left to the full-frame passes, which a tag takes many frames to escape.
   double entry_min_inflow_px = 0.5;
+  // Full-frame passes and entry bands at region_quad_decimate while fewer
+  // tags than this are found at the detector's decimation and some of them
+  // have modules under region_coarse_module_px: a frame with few tags needs
+  // the small ones to be posed at all (a blurred 640x360 walk behind a lens
+  // registered 3 of 20 frames without), but where enough are found the
+  // small ones' less precise corners cost more than they add (on a
+  // 1280x720 walk, 28 tags instead of 23 moved its scale from -205 to
+  // -434 ppm), and the fine pass costs ~4x the coarse one. 0: never.
+  int fine_search_below_tags = 4;
   // Back off after recoveries (see above). Off: every frame tries tracking.
   bool back_off_after_recovery = true;
   Status Check() const;
@@ -89,6 +101,7 @@ struct TagTrackerOptions {
 struct TagTrackerStats {
   int frames = 0;
   int full_frame_detections = 0;   // scheduled, first frame, or after a loss
+  int fine_full_frame_detections = 0;  // of those, at region_quad_decimate: the tags in view are small
   int recoveries = 0;              // full-frame detections caused by a lost tag
   int backed_off = 0;              // full-frame detections while backing off after recoveries
   int region_detections = 0;       // libapriltag runs on regions
@@ -142,13 +155,13 @@ class TagTracker {
   struct Search {
     cv::Rect area;
     bool band = false;
-    bool coarse = false;              // at the detector's decimation (bands always)
+    bool coarse = false;              // at the detector's decimation (bands unless the tags are small)
     bool by_candidates = false;       // a band searched by candidates (BandCandidates)
     std::vector<TagDetection> found;  // frame coordinates, unrefined
   };
 
-  TagTracker(TagTrackerOptions options, std::unique_ptr<TagDetector> full, std::vector<ThreadDetectors> per_thread,
-             std::unique_ptr<detail::BandCandidates> candidates);
+  TagTracker(TagTrackerOptions options, std::unique_ptr<TagDetector> full, std::unique_ptr<TagDetector> fine_full,
+             std::vector<ThreadDetectors> per_thread, std::unique_ptr<detail::BandCandidates> candidates);
   Status SearchArea(const cv::Mat& gray8, FrameId frame, int thread, Search* search) const;
   Status SearchFine(const cv::Mat& gray8, FrameId frame, TagId id, const QuadCorners& corners,
                     std::vector<TagDetection>* found);
@@ -158,10 +171,16 @@ class TagTracker {
   void AddEntryBands(const cv::Size& image, std::vector<Search>* searches) const;
   Result<DetectionSet> DetectFullFrame(const cv::Mat& gray8, FrameId frame,
                                        const std::map<TagId, QuadCorners>& expected);
+  Result<DetectionSet> DetectWholeImage(const cv::Mat& gray8, FrameId frame);
+  bool FewSmallTags(const std::vector<TagDetection>& found) const;
+  bool FewSmallTracked() const;
   void Update(const DetectionSet& detections);
 
   TagTrackerOptions options_;
   std::unique_ptr<TagDetector> full_detector_;
+  // The full frame at region_quad_decimate, for scenes whose tags are too
+  // small for the detector's decimation; null when that is no finer.
+  std::unique_ptr<TagDetector> fine_full_detector_;
   std::vector<ThreadDetectors> per_thread_;
   std::unique_ptr<detail::BandCandidates> band_candidates_;  // null: bands by libapriltag
   std::unique_ptr<detail::DetectionWorkers> workers_;

@@ -20,6 +20,7 @@ struct RunStats {
   std::string tag_search;               // "tracking", "every_frame" (empty: not reported)
   int full_frame_detections = 0;        // frames detected in full (scheduled, first, after a lost tag)
   int tag_search_recoveries = 0;        // of those, after a tracked tag was not where predicted
+  int fine_full_frame_detections = 0;   // of those, at full resolution: the tags in view were small
   std::vector<double> feature_ms;       // feature tracking per feature keyframe
   double triangulation_s = 0;           // feature points from the final poses
   int feature_work_dropped = 0;         // feature keyframes not processed live (done at the end)
