@@ -5,7 +5,7 @@
 set -euo pipefail
 
 PACKAGES=(
-  build-essential cmake pkg-config git ccache
+  build-essential cmake pkg-config git ccache ninja-build
   libopencv-dev libopencv-contrib-dev
   libeigen3-dev libceres-dev
   libapriltag-dev
