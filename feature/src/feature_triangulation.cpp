@@ -68,7 +68,7 @@ Eigen::Matrix3d AngularNormalMatrix(const std::vector<FeatureRay>& rays, const E
   Eigen::Matrix<double, 2, 3> j;
   for (const FeatureRay& ray : rays) {
     AngularResidual(ray, point, &res, &j);
-    if (j.allFinite()) h += j.transpose() * j;
+    if (j.allFinite()) h += ray.weight * (j.transpose() * j);
   }
   return h;
 }
@@ -83,8 +83,8 @@ Eigen::Vector3d RefineAngularError(const std::vector<FeatureRay>& rays, const Ei
     for (const FeatureRay& ray : rays) {
       AngularResidual(ray, x, &res, &j);
       if (!res.allFinite() || !j.allFinite()) continue;  // the point at a camera's centre
-      h += j.transpose() * j;
-      g += j.transpose() * res;
+      h += ray.weight * (j.transpose() * j);
+      g += ray.weight * (j.transpose() * res);
     }
     const Eigen::Vector3d step = h.ldlt().solve(-g);
     if (!step.allFinite()) break;

@@ -83,6 +83,7 @@ FeatureTrack RefineTrackViews(const FeatureTrack& track, const FeaturePoint& poi
     if (!fit) continue;
     TrackObservation moved = v.observation;
     moved.pixel = fit->warp.centre;
+    moved.sigma_px = fit->sigma_px;
     out.observations.push_back(moved);
   }
   if (out.observations.size() < 2) out.observations.clear();

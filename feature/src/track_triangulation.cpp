@@ -73,8 +73,11 @@ std::optional<FeaturePoint> TriangulateOne(const FeatureTrack& track, std::vecto
     if (*worst <= options.max_view_error_px) break;
     views.erase(views.begin() + (worst - errors.begin()));
   }
-  double sum_sq = 0;
-  for (double e : errors) sum_sq += e * e;
+  double sum_sq = 0, weighted_sum_sq = 0;
+  for (size_t i = 0; i < views.size(); ++i) {
+    sum_sq += errors[i] * errors[i];
+    weighted_sum_sq += views[i].ray.weight * errors[i] * errors[i];
+  }
   const double n = static_cast<double>(views.size());
   const double rms = std::sqrt(sum_sq / n);
   if (!(rms <= options.max_reprojection_rms_px)) return std::nullopt;
@@ -97,7 +100,9 @@ std::optional<FeaturePoint> TriangulateOne(const FeatureTrack& track, std::vecto
   p.reprojection_rms_px = rms;
   p.max_angle_deg = angle;
   // 2n residuals, 3 parameters: the RMS underestimates the noise by that.
-  const double noise_px = std::max(rms * std::sqrt(2 * n / std::max(1.0, 2 * n - 3)), options.feature_sigma_px);
+  // Weighted, it is the noise of a view of weight 1.
+  const double weighted_rms = std::sqrt(weighted_sum_sq / n);
+  const double noise_px = std::max(weighted_rms * std::sqrt(2 * n / std::max(1.0, 2 * n - 3)), options.feature_sigma_px);
   const double sigma = noise_px / camera.fx;
   p.covariance = sigma * sigma * normal.inverse();
   Eigen::Vector3d rgb = Eigen::Vector3d::Zero();
@@ -122,7 +127,9 @@ std::vector<FeaturePoint> TriangulateTracks(const std::vector<FeatureTrack>& tra
     for (const TrackObservation& o : track.observations) {
       const auto pose = cam_from_world.find(o.frame);
       if (pose == cam_from_world.end()) continue;
-      views.push_back({{pose->second, Eigen::Vector3d::UnitZ()}, o});
+      const double sigma_px = std::max(o.sigma_px, options.feature_sigma_px);
+      const double weight = (options.feature_sigma_px / sigma_px) * (options.feature_sigma_px / sigma_px);
+      views.push_back({{pose->second, Eigen::Vector3d::UnitZ(), weight}, o});
       pixels.push_back(o.pixel);
     }
     if (static_cast<int>(views.size()) < options.min_views) return;

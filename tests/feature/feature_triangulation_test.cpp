@@ -45,6 +45,28 @@ TEST(FeatureTriangulation, ExactRaysGiveTheExactPoint) {
   EXPECT_LT((RefineAngularError(Rays(cams, point), *linear + Eigen::Vector3d(0.01, -0.02, 0.03), 10) - point).norm(), 1e-9);
 }
 
+// A ray known to be ten times worse located (weight 1/100) pulls the point
+// far less than the others: the weighted least squares follows the good rays.
+TEST(FeatureTriangulation, AWorseRayWeighsLess) {
+  const auto cams = ArcCameras(4, 10.0);
+  const Eigen::Vector3d point(0.3, -0.2, 0.25);
+  std::vector<FeatureRay> rays = Rays(cams, point);
+  // 2 px off in the image (f = 1000 px): 2 mrad across the first ray.
+  rays[0].bearing = (rays[0].bearing + 2e-3 * rays[0].bearing.unitOrthogonal()).normalized();
+  const Eigen::Vector3d alike = RefineAngularError(rays, point, 10);
+  rays[0].weight = 0.01;
+  const Eigen::Vector3d weighted = RefineAngularError(rays, point, 10);
+  std::printf("error: %.3f mm alike, %.3f mm weighted\n", 1e3 * (alike - point).norm(), 1e3 * (weighted - point).norm());
+  EXPECT_GT((alike - point).norm(), 1e-3);
+  EXPECT_LT((weighted - point).norm(), 0.05 * (alike - point).norm());
+  // The normal matrix scales with the weights.
+  for (FeatureRay& r : rays) r.weight = 0.25;
+  std::vector<FeatureRay> unit = rays;
+  for (FeatureRay& r : unit) r.weight = 1.0;
+  EXPECT_LT((AngularNormalMatrix(rays, point) - 0.25 * AngularNormalMatrix(unit, point)).norm(),
+            1e-12 * AngularNormalMatrix(unit, point).norm());
+}
+
 TEST(FeatureTriangulation, ParallelRaysHaveNoPoint) {
   std::vector<Rigid3d> cams{Rigid3d(), Rigid3d()};
   const Eigen::Vector3d bearing = Eigen::Vector3d(0.1, 0.2, 1.0).normalized();

@@ -49,18 +49,21 @@ struct FeaturePoint {
 struct FeatureRay {
   Rigid3d cam_from_world;
   Eigen::Vector3d bearing = Eigen::Vector3d::UnitZ();
+  // Inverse variance of this ray's angular noise relative to the others'
+  // (1: alike); a view located twice as badly weighs a quarter.
+  double weight = 1.0;
 };
 
 // Linear (DLT) triangulation in normalised coordinates; nullopt when the
 // rays are (nearly) parallel.
 std::optional<Eigen::Vector3d> TriangulateLinear(const std::vector<FeatureRay>& rays);
 
-// Gauss-Newton on the angular error (tangent-plane residual of each ray)
-// from `start`.
+// Gauss-Newton on the weighted angular error (tangent-plane residual of
+// each ray) from `start`.
 Eigen::Vector3d RefineAngularError(const std::vector<FeatureRay>& rays, const Eigen::Vector3d& start, int max_iterations);
 
-// Normal matrix J^T J of the angular residuals at `point` (unit angular
-// noise): its inverse times sigma^2 is the point's covariance.
+// Normal matrix J^T W J of the angular residuals at `point` (angular
+// noise sigma^2 / weight): its inverse times sigma^2 is the point's covariance.
 Eigen::Matrix3d AngularNormalMatrix(const std::vector<FeatureRay>& rays, const Eigen::Vector3d& point);
 
 // Every track seen in at least min_track_length registered frames, whose

@@ -23,6 +23,9 @@ struct TrackObservation {
   int feature = -1;                                 // index in that keyframe's KeyframeFeatures
   Eigen::Vector2d pixel = Eigen::Vector2d::Zero();  // distorted, OpenCV convention
   std::array<std::uint8_t, 3> rgb{0, 0, 0};
+  // This view's localisation noise, px, when known (a least-squares fit's
+  // own estimate); 0: the triangulation's feature_sigma_px.
+  double sigma_px = 0;
 };
 
 // One scene point's observations, at most one per keyframe.
@@ -39,7 +42,8 @@ struct TrackTriangulationOptions {
   double max_view_error_px = 2.0;
   double max_reprojection_rms_px = 1.0;  // over the kept views
   // The feature localisation noise the predicted sigma assumes, px; also the
-  // floor of the noise behind the stored covariance.
+  // floor of the noise behind the stored covariance, and of each view's own
+  // sigma_px: a view known to be worse weighs (feature_sigma_px / sigma_px)^2.
   double feature_sigma_px = 0.5;
   // Largest axis of the predicted covariance (at feature_sigma_px) over the
   // distance to the nearest camera; wider is dropped (narrow rays).
