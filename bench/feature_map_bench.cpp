@@ -6,7 +6,7 @@
 //   feature_map_bench poses REC OUT [options]    poses and targets from a replay's OUT (real photos)
 //   feature_map_bench middlebury DIR [options]   DIR/*_par.txt: exact cameras, no targets
 //
-// options: --max-features N --contrast C --plain-sift 0|1 --image-scale S --epipolar PX --ratio R
+// options: --max-features N --contrast C --relative-contrast 0|1 --plain-sift 0|1 --image-scale S --epipolar PX --ratio R
 //          --max-distance D --neighbours N --min-overlap S --max-view-angle DEG --min-angle DEG
 //          --max-view-error PX --max-rms PX --max-relative-sigma S --feature-sigma PX --min-views N
 //          --refine 0|1 --refined-sigma PX --half-window N --min-correlation C --max-fit-sigma PX --depth-factor F --every N --threads N
@@ -165,6 +165,7 @@ bool ParseOptions(int argc, char** argv, int first, BenchOptions& o) {
     TrackTriangulationOptions& t = o.map.triangulation;
     if (name == "--max-features") o.extractor.max_features = static_cast<int>(v);
     else if (name == "--contrast") o.extractor.contrast_threshold = v;
+    else if (name == "--relative-contrast") o.extractor.contrast_relative_to_range = v != 0;
     else if (name == "--plain-sift") o.extractor.root_sift = v == 0;
     else if (name == "--image-scale") o.extractor.image_scale = v;
     else if (name == "--epipolar") o.map.matcher.epipolar_px = v;

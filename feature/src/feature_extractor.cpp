@@ -1,6 +1,7 @@
 #include "tagsfm/feature/feature_extractor.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <string>
 
@@ -61,17 +62,45 @@ std::array<std::uint8_t, 3> ColourAt(const cv::Mat& gray, const cv::Mat& colour,
   return {g, g, g};
 }
 
+// Grey range between the 1st and 99th percentiles of the pixels `mask`
+// keeps (every other row and column), over 255; 1 for an empty mask.
+double GreyRangeFraction(const cv::Mat& gray, const cv::Mat& mask) {
+  std::array<long, 256> histogram{};
+  long total = 0;
+  for (int r = 0; r < gray.rows; r += 2) {
+    const std::uint8_t* g = gray.ptr<std::uint8_t>(r);
+    const std::uint8_t* m = mask.ptr<std::uint8_t>(r);
+    for (int c = 0; c < gray.cols; c += 2) {
+      if (m[c] == 0) continue;
+      ++histogram[g[c]];
+      ++total;
+    }
+  }
+  if (total == 0) return 1.0;
+  const auto percentile = [&](double share) {
+    long seen = 0;
+    for (int v = 0; v < 256; ++v) {
+      seen += histogram[static_cast<size_t>(v)];
+      if (static_cast<double>(seen) > share * static_cast<double>(total)) return v;
+    }
+    return 255;
+  };
+  return (percentile(0.99) - percentile(0.01)) / 255.0;
+}
+
 }  // namespace
 
 Result<KeyframeFeatures> ExtractFeatures(const cv::Mat& gray, const cv::Mat& colour, const DetectionSet& tags,
                                          const FeatureExtractorOptions& options) {
   if (Status s = options.Check(); !s) return s.error();
   if (gray.empty() || gray.type() != CV_8UC1) return MakeError("frame " + std::to_string(tags.frame) + ": features need an 8-bit grey image");
-  cv::Ptr<cv::SIFT> sift = cv::SIFT::create(options.max_features, 3, options.contrast_threshold);
+  const cv::Mat full_mask = MaskOutsideTags(gray.size(), tags, options.tag_margin);
+  double contrast = options.contrast_threshold;
+  if (options.contrast_relative_to_range) contrast *= std::clamp(GreyRangeFraction(gray, full_mask), 0.1, 1.0);
+  cv::Ptr<cv::SIFT> sift = cv::SIFT::create(options.max_features, 3, contrast);
   std::vector<cv::KeyPoint> keypoints;
   cv::Mat descriptors;
   const double scale = options.image_scale;
-  const cv::Mat full_mask = MaskOutsideTags(gray.size(), tags, options.tag_margin);
   if (scale < 1.0) {
     cv::Mat small, mask;
     cv::resize(gray, small, cv::Size(), scale, scale, cv::INTER_AREA);

@@ -72,6 +72,32 @@ TEST(FeatureExtractor, NoFeaturesOnTagsAndMaxFeaturesIsHonoured) {
   EXPECT_GT(all->size(), few->size());
 }
 
+// The same scene exposed at 0.3 of the light: with the threshold on absolute
+// grey values SIFT loses most of its features; relative to the image's grey
+// range it keeps about as many as in the well exposed image.
+TEST(FeatureExtractor, ADimExposureKeepsItsFeaturesWithTheRelativeThreshold) {
+  const cv::Mat bright = Texture(640, 480, 21);
+  cv::Mat dim;
+  bright.convertTo(dim, CV_8U, 0.3);
+  FeatureExtractorOptions options;
+  auto on_bright = ExtractFeatures(bright, cv::Mat(), DetectionSet{0, {}}, options);
+  auto on_dim = ExtractFeatures(dim, cv::Mat(), DetectionSet{1, {}}, options);
+  options.contrast_relative_to_range = false;
+  auto absolute_bright = ExtractFeatures(bright, cv::Mat(), DetectionSet{0, {}}, options);
+  auto absolute_dim = ExtractFeatures(dim, cv::Mat(), DetectionSet{1, {}}, options);
+  ASSERT_TRUE(on_bright && on_dim && absolute_bright && absolute_dim);
+  std::printf("features: relative %d bright, %d dim; absolute %d bright, %d dim\n", on_bright->size(), on_dim->size(),
+              absolute_bright->size(), absolute_dim->size());
+  ASSERT_GT(on_bright->size(), 300);
+  // 8-bit rounding of the dim image adds a little noise of its own.
+  EXPECT_GT(on_dim->size(), 0.8 * on_bright->size());
+  EXPECT_LT(on_dim->size(), 1.25 * on_bright->size());
+  EXPECT_LT(absolute_dim->size(), 0.5 * absolute_bright->size());
+  // This texture spans most of the range: the relative threshold is little lower.
+  EXPECT_GE(on_bright->size(), absolute_bright->size());
+  EXPECT_LT(on_bright->size(), 1.5 * absolute_bright->size());
+}
+
 TEST(FeatureExtractor, BadInputIsAnError) {
   EXPECT_FALSE(ExtractFeatures(cv::Mat(), cv::Mat(), DetectionSet{7, {}}, {}).has_value());
   FeatureExtractorOptions options;

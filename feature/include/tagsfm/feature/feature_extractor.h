@@ -22,6 +22,11 @@ struct FeatureExtractorOptions {
   // peak_threshold): half of it doubles the features, and the points, at the
   // same accuracy, and real indoor photos need it (docs/features.md).
   double contrast_threshold = 0.02;
+  // The threshold scaled by the image's grey range outside the tags (its
+  // 1st to 99th percentile over 255, at least 0.1): SIFT's threshold is on
+  // absolute grey values, so a dim or low-contrast exposure loses most of
+  // its features where a well exposed one of the same scene keeps them.
+  bool contrast_relative_to_range = true;
   // RootSIFT (Arandjelovic & Zisserman 2012: L1-normalise, square root)
   // instead of plain SIFT; either way the descriptors have unit L2 norm.
   bool root_sift = true;
