@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <map>
 #include <optional>
 #include <set>
@@ -291,7 +292,7 @@ void TagTracker::AddEntryBands(const cv::Size& image, std::vector<Search>* searc
     // Tags entering are taken to be about as small as the smallest in view.
     const bool by_candidates =
         band_candidates_ != nullptr && smallest_module_px >= options_.entry_band_candidates_min_module_px;
-    const bool coarse = !FewSmallTracked();
+    const bool coarse = !FewAndSmall(tracks_.size(), smallest_module_px);
     if (band.area() > 0) searches->push_back(Search{band, true, coarse, by_candidates, {}});
   }
 }
@@ -380,23 +381,25 @@ Result<DetectionSet> TagTracker::DetectFullFrame(const cv::Mat& gray8, FrameId f
   return detections;
 }
 
-// Fewer than fine_search_below_tags tags, some with small modules: the
-// coarse decimation has likely missed others as small.
+// Fewer than fine_search_below_tags tags, the smallest with modules under
+// region_coarse_module_px: the coarse decimation has likely missed others as small.
+bool TagTracker::FewAndSmall(size_t tags, double smallest_module_px) const {
+  return static_cast<int>(tags) < options_.fine_search_below_tags && smallest_module_px < options_.region_coarse_module_px;
+}
+
 bool TagTracker::FewSmallTags(const std::vector<TagDetection>& found) const {
-  if (static_cast<int>(found.size()) >= options_.fine_search_below_tags) return false;
   const int modules = full_detector_->ModulesAcrossCornerSquare();
-  return std::any_of(found.begin(), found.end(), [&](const TagDetection& tag) {
-    return ModulePx(tag.corners, modules) < options_.region_coarse_module_px;
-  });
+  double smallest = std::numeric_limits<double>::infinity();
+  for (const TagDetection& tag : found) smallest = std::min(smallest, ModulePx(tag.corners, modules));
+  return FewAndSmall(found.size(), smallest);
 }
 
 // The same test on the tags found on the last frame.
 bool TagTracker::FewSmallTracked() const {
-  if (static_cast<int>(tracks_.size()) >= options_.fine_search_below_tags) return false;
   const int modules = full_detector_->ModulesAcrossCornerSquare();
-  return std::any_of(tracks_.begin(), tracks_.end(), [&](const auto& track) {
-    return ModulePx(track.second.corners, modules) < options_.region_coarse_module_px;
-  });
+  double smallest = std::numeric_limits<double>::infinity();
+  for (const auto& [id, track] : tracks_) smallest = std::min(smallest, ModulePx(track.corners, modules));
+  return FewAndSmall(tracks_.size(), smallest);
 }
 
 // The whole image at the detector's decimation, or at region_quad_decimate

@@ -172,6 +172,7 @@ class TagTracker {
   Result<DetectionSet> DetectFullFrame(const cv::Mat& gray8, FrameId frame,
                                        const std::map<TagId, QuadCorners>& expected);
   Result<DetectionSet> DetectWholeImage(const cv::Mat& gray8, FrameId frame);
+  bool FewAndSmall(size_t tags, double smallest_module_px) const;
   bool FewSmallTags(const std::vector<TagDetection>& found) const;
   bool FewSmallTracked() const;
   void Update(const DetectionSet& detections);
