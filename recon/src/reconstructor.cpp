@@ -158,7 +158,7 @@ bool Reconstructor::TryBootstrap(FrameState& frame) {
       state->keyframe = true;
       CountMethod(*state);
       window_->AddKeyframe(state, &tags_);
-      last_keyframe_ = state;
+      keyframes_.push_back(state);
     }
     last_registered_ = &frame;
     started_ = true;
@@ -221,7 +221,7 @@ void Reconstructor::StartMapFromOneView(FrameState& frame) {
   frame.keyframe = true;
   CountMethod(frame);
   window_->AddKeyframe(&frame, &tags_);
-  last_keyframe_ = &frame;
+  keyframes_.push_back(&frame);
   last_registered_ = &frame;
   for (const auto& obs : frame.tags) {
     if (!tags_.count(obs.id)) pending_[obs.id].push_back(&frame);
@@ -324,7 +324,7 @@ void Reconstructor::Register(FrameState& frame, bool adjust, FrameReport* report
     frame.keyframe = true;
     for (TagId id : added) window_->AddTag(&tags_.at(id));
     window_->AddKeyframe(&frame, &tags_);
-    last_keyframe_ = &frame;
+    keyframes_.push_back(&frame);
     window_->Solve();
   }
 }
@@ -512,10 +512,8 @@ std::vector<TagId> Reconstructor::MapPendingTagsNow(const FrameState& frame) {
 }
 
 bool Reconstructor::IsKeyframe(const FrameState& frame, bool added_tags) const {
-  if (added_tags || !last_keyframe_) return true;
+  if (added_tags || keyframes_.empty()) return true;
   const Rigid3d current = frame.cam_from_world.ToRigid();
-  const Rigid3d last = last_keyframe_->cam_from_world.ToRigid();
-  if (RotationAngleDeg(current.rotation, last.rotation) >= options_.keyframe_min_rotation_deg) return true;
   std::vector<double> depths;
   for (const auto& obs : frame.tags) {
     auto it = tags_.find(obs.id);
@@ -523,8 +521,17 @@ bool Reconstructor::IsKeyframe(const FrameState& frame, bool added_tags) const {
   }
   if (depths.empty()) return false;
   std::nth_element(depths.begin(), depths.begin() + depths.size() / 2, depths.end());
-  const double median_depth = depths[depths.size() / 2];
-  return (current.Center() - last.Center()).norm() >= options_.keyframe_min_translation_ratio * median_depth;
+  const double min_translation = options_.keyframe_min_translation_ratio * depths[depths.size() / 2];
+  // Against every keyframe, not only the last: a camera walked back over
+  // ground it has covered adds views that are already there.
+  for (const FrameState* keyframe : keyframes_) {
+    const Rigid3d pose = keyframe->cam_from_world.ToRigid();
+    if (RotationAngleDeg(current.rotation, pose.rotation) < options_.keyframe_min_rotation_deg &&
+        (current.Center() - pose.Center()).norm() < min_translation) {
+      return false;
+    }
+  }
+  return true;
 }
 
 // Finish, phase by phase: the map completed from what is still waiting, the

@@ -216,6 +216,37 @@ TEST(Reconstructor, BumpedTargetIsMappedAgain) {
   EXPECT_EQ(result.Poses().size(), static_cast<size_t>(options.frames));
 }
 
+TEST(Reconstructor, AWalkBackOverCoveredGroundAddsNoKeyframe) {
+  // 20 views forth, then the same views back (new frame numbers): the way
+  // back holds nothing new, so it adds no keyframe, with or without a map.
+  // The way forth still takes its views (the box walk turns ~3 degrees and
+  // moves ~6 % of the depth per frame: about every other frame).
+  synth::SyntheticSceneOptions options;
+  options.frames = 20;
+  options.noise_px = 0.1;
+  const synth::SyntheticScene scene = synth::MakeSyntheticBoxScene(options);
+  std::vector<DetectionSet> walk = scene.detections;
+  for (auto it = scene.detections.rbegin(); it != scene.detections.rend(); ++it) {
+    walk.push_back(*it);
+    walk.back().frame = static_cast<FrameId>(walk.size() - 1);
+  }
+  for (const bool known_map : {true, false}) {
+    auto recon = Reconstructor::Create(scene.camera, BoxTargets(options),
+                                       known_map ? std::optional(scene.targets) : std::nullopt, {});
+    ASSERT_TRUE(recon.has_value());
+    int forth = 0, back = 0, registered_back = 0;
+    for (size_t i = 0; i < walk.size(); ++i) {
+      const FrameReport report = (*recon)->AddFrame(walk[i]);
+      const bool way_back = i >= scene.detections.size();
+      if (report.keyframe) ++(way_back ? back : forth);
+      if (way_back && report.registered) ++registered_back;
+    }
+    EXPECT_GE(forth, 6) << "known map: " << known_map;
+    EXPECT_EQ(back, 0) << "known map: " << known_map;
+    EXPECT_GE(registered_back, 18) << "known map: " << known_map;
+  }
+}
+
 TEST(Reconstructor, FrameWithoutTagsIsUnregisteredWithReason) {
   synth::SyntheticSceneOptions options;
   options.frames = 3;

@@ -39,8 +39,9 @@ struct ReconstructorOptions {
   // tags from this angle apart; after that many, one view starts the map.
   int bootstrap_max_frames = 10;
   double bootstrap_min_angle_deg = 3.0;
-  // A registered frame becomes a keyframe when it moved this fraction of
-  // the tags' median depth, turned this much, or mapped a new tag.
+  // A registered frame becomes a keyframe when it mapped a new tag, or when
+  // it moved this fraction of the tags' median depth or turned this much
+  // from every keyframe so far (a view already held is not taken again).
   double keyframe_min_translation_ratio = 0.05;
   double keyframe_min_rotation_deg = 5.0;
   bool final_adjustment = true;
@@ -164,7 +165,7 @@ class Reconstructor {
   bool started_ = false;                          // the map exists (known, or bootstrapped)
   std::optional<TagId> anchor_;
   const FrameState* last_registered_ = nullptr;
-  const FrameState* last_keyframe_ = nullptr;
+  std::vector<const FrameState*> keyframes_;   // in the order chosen
   std::unique_ptr<SlidingWindowBundleAdjuster> window_;
   std::map<std::string, int> method_counts_;
   // Corner noise per axis measured on frames whose pose failed the fixed
