@@ -18,6 +18,7 @@ Status FeatureMapOptions::Check() const {
   if (max_neighbours < 1) return MakeError("feature_map.max_neighbours must be >= 1");
   if (!(min_overlap >= 0 && min_overlap <= 1)) return MakeError("feature_map.min_overlap must be in [0, 1]");
   if (!(max_view_angle_deg > 0 && max_view_angle_deg <= 180)) return MakeError("feature_map.max_view_angle_deg must be in (0, 180]");
+  if (!(rematch_shift_px >= 0)) return MakeError("feature_map.rematch_shift_px must be >= 0");
   return Status::Ok();
 }
 
@@ -74,14 +75,14 @@ Overlap ViewOverlap(const PosedKeyframe& from, const PosedKeyframe& to, const st
 
 }  // namespace
 
-std::vector<int> FeatureMap::OverlappingKeyframes(const PosedKeyframe& added) const {
+std::vector<int> FeatureMap::OverlappingKeyframes(const PosedKeyframe& added, int earlier_count) const {
   struct Candidate {
     int index;
     double share;
     double distance;
   };
   std::vector<Candidate> candidates;
-  for (size_t k = 0; k < keyframes_.size(); ++k) {
+  for (size_t k = 0; k < static_cast<size_t>(earlier_count); ++k) {
     const PosedKeyframe& earlier = keyframes_[k];
     // Both ways: each view's scene must be in the other's image.
     const Overlap a = ViewOverlap(added, earlier, view_sample_rays_, camera_);
@@ -145,45 +146,107 @@ Result<KeyframeMatchStats> FeatureMap::AddKeyframe(KeyframeFeatures features, co
   }
   auto posed = MakePosedKeyframe(std::move(features), cam_from_world, depth, camera_);
   if (!posed) return posed.error();
-  KeyframeMatchStats stats;
-  stats.frame = posed->features.frame;
-  const std::vector<int> neighbours = OverlappingKeyframes(*posed);
+  keyframes_.push_back(std::move(*posed));
+  return MatchLastKeyframe();
+}
 
-  const int index = static_cast<int>(keyframes_.size());
+KeyframeMatchStats FeatureMap::MatchLastKeyframe(KeptMatches* kept) {
+  const int index = static_cast<int>(keyframes_.size()) - 1;
+  const PosedKeyframe& added = keyframes_.back();
+  KeyframeMatchStats stats;
+  stats.frame = added.features.frame;
+  const std::vector<int> neighbours = OverlappingKeyframes(added, index);
+
   const int first = static_cast<int>(parent_.size());
-  const int n = posed->features.size();
+  const int n = added.features.size();
   first_node_.push_back(first);
   for (int i = 0; i < n; ++i) {
     parent_.push_back(first + i);
     node_keyframe_.push_back(index);
   }
   members_.resize(parent_.size());
-  keyframes_.push_back(std::move(*posed));
-  const PosedKeyframe& added = keyframes_.back();
+  pair_matches_.emplace_back();
 
   for (int k : neighbours) {
     const PosedKeyframe& earlier = keyframes_[static_cast<size_t>(k)];
     stats.matched_with.push_back(earlier.features.frame);
-    const GuidedMatches matches = MatchGuided(added, earlier, camera_, options_.matcher);
-    stats.matches += static_cast<int>(matches.matches.size());
-    for (const FeatureMatch& m : matches.matches) {
-      const int node_new = first + m.first, node_old = first_node_[static_cast<size_t>(k)] + m.second;
-      const int root_new = Find(node_new), root_old = Find(node_old);
-      if (root_new == root_old) continue;
-      const size_t size_new = std::max<size_t>(1, members_[static_cast<size_t>(root_new)].size());
-      const size_t size_old = std::max<size_t>(1, members_[static_cast<size_t>(root_old)].size());
-      if (!Union(node_new, node_old)) {
-        ++stats.conflicts;
-        continue;
-      }
-      if (size_new == 1) {
-        ++(size_old >= 2 ? stats.tracks_continued : stats.tracks_started);
-      } else if (size_old >= 2) {
-        ++stats.tracks_merged;
-      }
+    std::vector<FeatureMatch> matches;
+    const auto reused = kept ? kept->find({added.features.frame, earlier.features.frame}) : KeptMatches::iterator();
+    if (kept && reused != kept->end()) {
+      matches = std::move(reused->second);
+    } else {
+      matches = MatchGuided(added, earlier, camera_, options_.matcher).matches;
     }
+    stats.matches += static_cast<int>(matches.size());
+    MergeMatches(first, k, matches, &stats);
+    pair_matches_.back().emplace_back(k, std::move(matches));
   }
   return stats;
+}
+
+void FeatureMap::MergeMatches(int first_new, int earlier, const std::vector<FeatureMatch>& matches,
+                              KeyframeMatchStats* stats) {
+  for (const FeatureMatch& m : matches) {
+    const int node_new = first_new + m.first, node_old = first_node_[static_cast<size_t>(earlier)] + m.second;
+    const int root_new = Find(node_new), root_old = Find(node_old);
+    if (root_new == root_old) continue;
+    const size_t size_new = std::max<size_t>(1, members_[static_cast<size_t>(root_new)].size());
+    const size_t size_old = std::max<size_t>(1, members_[static_cast<size_t>(root_old)].size());
+    if (!Union(node_new, node_old)) {
+      ++stats->conflicts;
+      continue;
+    }
+    if (size_new == 1) {
+      ++(size_old >= 2 ? stats->tracks_continued : stats->tracks_started);
+    } else if (size_old >= 2) {
+      ++stats->tracks_merged;
+    }
+  }
+}
+
+double FeatureMap::ViewShiftPx(const PosedKeyframe& keyframe, const Rigid3d& pose, const CameraModel& camera) const {
+  const Rigid3d world_from_cam = keyframe.cam_from_world.Inverse();
+  const double depth = keyframe.depth.Typical();
+  double shift = 0;
+  for (const Eigen::Vector3d& ray : view_sample_rays_) {
+    const Eigen::Vector3d in_new = pose * (world_from_cam * (ray * depth));
+    if (!(in_new.z() > 0)) return INFINITY;
+    shift = std::max(shift, (camera.Project(in_new) - camera_.Project(ray * depth)).norm());
+  }
+  return shift;
+}
+
+Result<int> FeatureMap::Rematch(const PoseMap& cam_from_world, const CameraModel& camera) {
+  if (Status s = camera.Check(); !s) return s.error();
+  // Which keyframes' views moved, and the matches of the pairs where neither did.
+  std::map<FrameId, bool> moved;
+  for (const PosedKeyframe& k : keyframes_) {
+    const auto pose = cam_from_world.find(k.features.frame);
+    moved[k.features.frame] = pose == cam_from_world.end() || ViewShiftPx(k, pose->second, camera) > options_.rematch_shift_px;
+  }
+  KeptMatches kept;
+  for (size_t i = 0; i < keyframes_.size(); ++i) {
+    const FrameId frame = keyframes_[i].features.frame;
+    for (auto& [k, matches] : pair_matches_[i]) {
+      const FrameId earlier = keyframes_[static_cast<size_t>(k)].features.frame;
+      if (!moved[frame] && !moved[earlier]) kept[{frame, earlier}] = std::move(matches);
+    }
+  }
+  std::vector<PosedKeyframe> old = std::move(keyframes_);
+  *this = FeatureMap(camera, options_);
+  for (PosedKeyframe& keyframe : old) {
+    const auto pose = cam_from_world.find(keyframe.features.frame);
+    if (pose == cam_from_world.end()) continue;
+    // The features passed MakePosedKeyframe's checks once; only the pose and
+    // the undistortion change.
+    auto posed = MakePosedKeyframe(std::move(keyframe.features), pose->second, keyframe.depth, camera_);
+    if (!posed) return posed.error();
+    keyframes_.push_back(std::move(*posed));
+    MatchLastKeyframe(&kept);
+  }
+  int count = 0;
+  for (const auto& [frame, m] : moved) count += m;
+  return count;
 }
 
 std::vector<FeatureTrack> FeatureMap::Tracks() const {

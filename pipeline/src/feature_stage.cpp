@@ -224,7 +224,13 @@ void FeatureStage::Complete(const FeatureFrameLoader& reload) {
   s.map = std::move(rebuilt);
 }
 
-std::vector<FeaturePoint> FeatureStage::Triangulate(const PoseMap& cam_from_world, const CameraModel& camera) const {
+std::vector<FeaturePoint> FeatureStage::Triangulate(const PoseMap& cam_from_world, const CameraModel& camera) {
+  if (state_->options.rematch_final_poses) {
+    if (auto moved = state_->map->Rematch(cam_from_world, camera); !moved) {
+      std::lock_guard<std::mutex> lock(state_->mutex);
+      state_->warnings.push_back("features: " + moved.error().message);
+    }
+  }
   return state_->map->Triangulate(cam_from_world, camera, state_->options.finish_threads);
 }
 

@@ -129,6 +129,7 @@ void ReadFeatureMap(YamlFields f, FeatureMapOptions* o) {
   f.Read("max_neighbours", &o->max_neighbours);
   f.Read("min_overlap", &o->min_overlap);
   f.Read("max_view_angle_deg", &o->max_view_angle_deg);
+  f.Read("rematch_shift_px", &o->rematch_shift_px);
   f.Done();
 }
 
@@ -145,6 +146,7 @@ void ReadFeatures(YamlFields f, FeatureStageOptions* o) {
   f.Read("live_cloud_interval_s", &o->live_cloud_interval_s);
   f.Read("live_cloud_max_points", &o->live_cloud_max_points);
   f.Read("finish_threads", &o->finish_threads);
+  f.Read("rematch_final_poses", &o->rematch_final_poses);
   f.Done();
 }
 

@@ -118,6 +118,77 @@ WalkResult RunWalk(const synth::SynthOptions& synth_options, bool shuffled) {
   return r;
 }
 
+// Tracks as a set of (frame, feature) views per track, for comparing maps.
+std::set<std::vector<std::pair<FrameId, int>>> TrackSet(const FeatureMap& map) {
+  std::set<std::vector<std::pair<FrameId, int>>> set;
+  for (const FeatureTrack& t : map.Tracks()) {
+    std::vector<std::pair<FrameId, int>> views;
+    for (const TrackObservation& o : t.observations) views.emplace_back(o.frame, o.feature);
+    set.insert(views);
+  }
+  return set;
+}
+
+// Live poses a little wrong (1.5 to 2.5 degrees: 13-22 px at f = 500, beyond the
+// 2 px epipolar band) lose matches; matched again from the right poses
+// the map has exactly the tracks it would have had from them. Rematched with
+// the poses it was built from, it keeps every match.
+TEST(FeatureMap, RematchFromTheFinalPosesGivesTheTracksOfThosePoses) {
+  for (unsigned seed : {2u, 9u}) {
+    synth::SynthOptions options;
+    options.path = seed == 2 ? "orbit" : "photos";
+    options.frames = 5;
+    options.width = 640;
+    options.height = 360;
+    options.max_azimuth_deg = 25;
+    options.seed = seed;
+    options.blur = seed == 2 ? 0.7 : 1.2;
+    options.tag_margin = seed == 2 ? 1.0 : 2.0;
+    if (seed == 9) options.distortion = {-0.1, 0.02, 0, 0};
+    testing::TempDir scratch;
+    const fs::path rec = scratch.path() / "rec";
+    ASSERT_TRUE(synth::WriteSyntheticRecording(options, rec).has_value());
+    auto reader = RecordingReader::Open(rec);
+    ASSERT_TRUE(reader.has_value());
+    const PoseMap poses = *ReadPosesCsv(rec / "ground_truth/poses.csv");
+    const CameraModel camera = *reader->info().camera;
+    auto right = FeatureMap::Create(camera, {});
+    auto wrong = FeatureMap::Create(camera, {});
+    ASSERT_TRUE(right.has_value() && wrong.has_value());
+    PoseMap wrong_poses;
+    for (size_t i = 0; i < reader->entries().size(); ++i) {
+      auto frame = reader->LoadFrame(i);
+      ASSERT_TRUE(frame.has_value());
+      auto features = ExtractFeatures(frame->gray, cv::Mat(), DetectionSet{frame->index, {}}, {});
+      ASSERT_TRUE(features.has_value());
+      const Rigid3d& pose = poses.at(frame->index);
+      const double angle = (1.5 + 0.25 * static_cast<double>(i)) * M_PI / 180;
+      const Eigen::Vector3d axis = Eigen::Vector3d(1.0, i % 2 ? -1.0 : 1.0, 0.5).normalized();
+      wrong_poses[frame->index] = Rigid3d(Eigen::Quaterniond(Eigen::AngleAxisd(angle, axis)), Eigen::Vector3d::Zero()) * pose;
+      const DepthRange depth{0.7, 6.0};
+      ASSERT_TRUE(right->AddKeyframe(*features, pose, depth).has_value());
+      ASSERT_TRUE(wrong->AddKeyframe(std::move(*features), wrong_poses[frame->index], depth).has_value());
+    }
+    const auto right_tracks = TrackSet(*right);
+    const auto wrong_tracks = TrackSet(*wrong);
+    std::cout << "seed " << seed << ": " << right_tracks.size() << " tracks from the right poses, " << wrong_tracks.size()
+              << " from the wrong ones\n";
+    ASSERT_GT(right_tracks.size(), 500u) << "seed " << seed;
+    EXPECT_LT(wrong_tracks.size(), right_tracks.size() * 3 / 4) << "seed " << seed << ": wrong poses should lose matches";
+
+    auto moved = wrong->Rematch(poses, camera);
+    ASSERT_TRUE(moved.has_value());
+    EXPECT_EQ(*moved, 5) << "seed " << seed;
+    EXPECT_TRUE(TrackSet(*wrong) == right_tracks) << "seed " << seed << ": " << TrackSet(*wrong).size() << " tracks, "
+                                                  << right_tracks.size() << " from the right poses";
+
+    auto unmoved = right->Rematch(poses, camera);
+    ASSERT_TRUE(unmoved.has_value());
+    EXPECT_EQ(*unmoved, 0) << "seed " << seed;
+    EXPECT_TRUE(TrackSet(*right) == right_tracks) << "seed " << seed;
+  }
+}
+
 // 640x360, 10 frames: features on every keyframe, tracks across gaps (a
 // feature lost for a keyframe is found again), and points on the surfaces.
 // Bounds below what was measured (docs/features.md) by a margin for the

@@ -5,6 +5,8 @@
 // overlaps its own, nearest in viewpoint first, and the matches are merged
 // into tracks by a union-find. A feature seen again after a gap, or from
 // the other side of a photo set, continues its track.
+#include <map>
+#include <utility>
 #include <vector>
 
 #include "tagsfm/core/camera_model.h"
@@ -41,6 +43,11 @@ struct FeatureMapOptions {
   // the scene: beyond, SIFT descriptors no longer match (and would only
   // yield wrong matches).
   double max_view_angle_deg = 60.0;
+  // Rematch: a keyframe is matched again when the final pose and camera move
+  // its view of the scene by more than this, pixels; a pair of keyframes that
+  // both moved less keeps its matches. Half the default epipolar band: a true
+  // match moved less stays inside it with its own localisation error.
+  double rematch_shift_px = 1.0;
 
   Status Check() const;  // names the wrong field
 };
@@ -66,6 +73,15 @@ class FeatureMap {
   // change) for a frame already added or bad features / depth range.
   Result<KeyframeMatchStats> AddKeyframe(KeyframeFeatures features, const Rigid3d& cam_from_world, const DepthRange& depth);
 
+  // Builds the tracks again, in the order the keyframes were added, from
+  // `cam_from_world` (the final poses) and `camera` (refined intrinsics): the
+  // live poses that guided the first matching are less accurate, and the
+  // epipolar band is a few pixels wide. Pairs of keyframes whose views moved
+  // less than rematch_shift_px keep their matches; the others are matched
+  // again. Keyframes without a pose here are left out. Returns how many
+  // keyframes moved.
+  Result<int> Rematch(const PoseMap& cam_from_world, const CameraModel& camera);
+
   // Tracks of two or more views, each view's feature index and pixel.
   std::vector<FeatureTrack> Tracks() const;
   // Points of every track from the final poses: with options.refine, the
@@ -82,8 +98,18 @@ class FeatureMap {
 
  private:
   FeatureMap(const CameraModel& camera, const FeatureMapOptions& options);
-  // Earlier keyframes to match the last one with, most overlapping first.
-  std::vector<int> OverlappingKeyframes(const PosedKeyframe& added) const;
+  // Matches earlier keyframes' matches that Rematch keeps, by (new, earlier) frame.
+  using KeptMatches = std::map<std::pair<FrameId, FrameId>, std::vector<FeatureMatch>>;
+  // Matches the last keyframe added with the earlier ones that overlap it
+  // (taking a pair's matches from `kept` when there).
+  KeyframeMatchStats MatchLastKeyframe(KeptMatches* kept = nullptr);
+  void MergeMatches(int first_new, int earlier, const std::vector<FeatureMatch>& matches, KeyframeMatchStats* stats);
+  // Pixels by which `pose` and `camera` move the keyframe's view of its scene
+  // (its sample rays at its typical depth) from where it was matched.
+  double ViewShiftPx(const PosedKeyframe& keyframe, const Rigid3d& pose, const CameraModel& camera) const;
+  // Keyframes among the first `earlier_count` to match `added` with, most
+  // overlapping first.
+  std::vector<int> OverlappingKeyframes(const PosedKeyframe& added, int earlier_count) const;
   int Find(int node) const;
   bool Union(int a, int b);  // false (and no change) on a conflict
   std::vector<int> Members(int root) const;
@@ -98,6 +124,8 @@ class FeatureMap {
   mutable std::vector<int> parent_;
   std::vector<int> node_keyframe_;
   std::vector<std::vector<int>> members_;  // at roots of 2+ nodes only
+  // Each keyframe's matches with the earlier keyframes it was matched with.
+  std::vector<std::vector<std::pair<int, std::vector<FeatureMatch>>>> pair_matches_;
 };
 
 }  // namespace tagsfm

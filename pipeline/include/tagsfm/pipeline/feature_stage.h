@@ -51,6 +51,10 @@ struct FeatureStageOptions {
   // Threads of the final triangulation and refinement (at Finish, when
   // capture is over; the points are the same for any number).
   int finish_threads = 2;
+  // At Finish, match the keyframes again from the final poses and camera
+  // before triangulating (FeatureMap::Rematch): live poses, and a lens not
+  // yet refined, push true matches out of the epipolar band.
+  bool rematch_final_poses = true;
 
   Status Check() const;  // names the wrong field ("features.map.min_overlap ...")
 };
@@ -85,8 +89,9 @@ class FeatureStage {
   // (dropped live, or without an image), read again with `reload`, in
   // keyframe order. Call once, before Triangulate.
   void Complete(const FeatureFrameLoader& reload);
-  // Points of every track from the final poses.
-  std::vector<FeaturePoint> Triangulate(const PoseMap& cam_from_world, const CameraModel& camera) const;
+  // Points of every track from the final poses (matched again from them
+  // first, with rematch_final_poses).
+  std::vector<FeaturePoint> Triangulate(const PoseMap& cam_from_world, const CameraModel& camera);
 
   LiveCloud live_cloud() const;              // any thread
   std::vector<std::string> TakeWarnings();   // one line each
