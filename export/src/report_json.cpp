@@ -107,6 +107,7 @@ Status WriteReport(const std::filesystem::path& path, const ReconstructionResult
     report["feature_ms"] = LatencyJson(stats.feature_ms);
     report["triangulation_s"] = stats.triangulation_s;
     report["feature_work_dropped"] = stats.feature_work_dropped;
+    report["feature_keyframes_rematched"] = stats.feature_keyframes_rematched;
   }
   report["peak_rss_mb"] = stats.peak_rss_mb;
   report["mode"] = stats.mode;

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <set>
 #include <string>
 #include <unordered_map>
 
@@ -174,6 +175,7 @@ KeyframeMatchStats FeatureMap::MatchLastKeyframe(KeptMatches* kept) {
     const auto reused = kept ? kept->find({added.features.frame, earlier.features.frame}) : KeptMatches::iterator();
     if (kept && reused != kept->end()) {
       matches = std::move(reused->second);
+      ++stats.pairs_reused;
     } else {
       matches = MatchGuided(added, earlier, camera_, options_.matcher).matches;
     }
@@ -204,36 +206,53 @@ void FeatureMap::MergeMatches(int first_new, int earlier, const std::vector<Feat
   }
 }
 
-double FeatureMap::ViewShiftPx(const PosedKeyframe& keyframe, const Rigid3d& pose, const CameraModel& camera) const {
-  const Rigid3d world_from_cam = keyframe.cam_from_world.Inverse();
-  const double depth = keyframe.depth.Typical();
+double FeatureMap::PairShiftPx(const PosedKeyframe& a, const PosedKeyframe& b, const Rigid3d& final_a,
+                               const Rigid3d& final_b, const FeatureMap& final_map) const {
+  // Only the relative pose places the epipolar band: a shift of the whole
+  // world (the gauge) moves nothing, and a shift along the epipolar line
+  // keeps a match inside the band; the shift across it is what counts.
+  const Rigid3d live_b_from_a = b.cam_from_world * a.cam_from_world.Inverse();
+  const Rigid3d final_b_from_a = final_b * final_a.Inverse();
+  const double depth = a.depth.Typical();
+  const CameraModel& final_camera = final_map.camera_;
   double shift = 0;
-  for (const Eigen::Vector3d& ray : view_sample_rays_) {
-    const Eigen::Vector3d in_new = pose * (world_from_cam * (ray * depth));
-    if (!(in_new.z() > 0)) return INFINITY;
-    shift = std::max(shift, (camera.Project(in_new) - camera_.Project(ray * depth)).norm());
+  for (size_t r = 0; r < view_sample_rays_.size(); ++r) {
+    const Eigen::Vector3d ray = final_map.view_sample_rays_[r];
+    const Eigen::Vector3d live = live_b_from_a * (view_sample_rays_[r] * depth);
+    const Eigen::Vector3d now = final_b_from_a * (ray * depth);
+    if (!(live.z() > 0) || !(now.z() > 0)) continue;  // behind b either way: matched in no band
+    Eigen::Vector2d moved = final_camera.Project(now) - camera_.Project(live);
+    const Eigen::Vector3d nearer = final_b_from_a * (ray * depth / 1.05), farther = final_b_from_a * (ray * depth * 1.05);
+    if (nearer.z() > 0 && farther.z() > 0) {
+      const Eigen::Vector2d line = final_camera.Project(farther) - final_camera.Project(nearer);
+      if (line.norm() > 1e-3) moved -= moved.dot(line.normalized()) * line.normalized();
+    }
+    shift = std::max(shift, moved.norm());
   }
   return shift;
 }
 
 Result<int> FeatureMap::Rematch(const PoseMap& cam_from_world, const CameraModel& camera) {
   if (Status s = camera.Check(); !s) return s.error();
-  // Which keyframes' views moved, and the matches of the pairs where neither did.
-  std::map<FrameId, bool> moved;
-  for (const PosedKeyframe& k : keyframes_) {
-    const auto pose = cam_from_world.find(k.features.frame);
-    moved[k.features.frame] = pose == cam_from_world.end() || ViewShiftPx(k, pose->second, camera) > options_.rematch_shift_px;
-  }
+  FeatureMap next(camera, options_);
+  // The pairs whose relative geometry the final poses and camera leave in
+  // place keep their matches; the keyframes of the others are matched again.
   KeptMatches kept;
   for (size_t i = 0; i < keyframes_.size(); ++i) {
-    const FrameId frame = keyframes_[i].features.frame;
+    const PosedKeyframe& a = keyframes_[i];
+    const auto pose_a = cam_from_world.find(a.features.frame);
     for (auto& [k, matches] : pair_matches_[i]) {
-      const FrameId earlier = keyframes_[static_cast<size_t>(k)].features.frame;
-      if (!moved[frame] && !moved[earlier]) kept[{frame, earlier}] = std::move(matches);
+      const PosedKeyframe& b = keyframes_[static_cast<size_t>(k)];
+      const auto pose_b = cam_from_world.find(b.features.frame);
+      if (pose_a == cam_from_world.end() || pose_b == cam_from_world.end()) continue;
+      if (PairShiftPx(a, b, pose_a->second, pose_b->second, next) <= options_.rematch_shift_px) {
+        kept[{a.features.frame, b.features.frame}] = std::move(matches);
+      }
     }
   }
   std::vector<PosedKeyframe> old = std::move(keyframes_);
-  *this = FeatureMap(camera, options_);
+  *this = std::move(next);
+  int rematched = 0;
   for (PosedKeyframe& keyframe : old) {
     const auto pose = cam_from_world.find(keyframe.features.frame);
     if (pose == cam_from_world.end()) continue;
@@ -242,11 +261,10 @@ Result<int> FeatureMap::Rematch(const PoseMap& cam_from_world, const CameraModel
     auto posed = MakePosedKeyframe(std::move(keyframe.features), pose->second, keyframe.depth, camera_);
     if (!posed) return posed.error();
     keyframes_.push_back(std::move(*posed));
-    MatchLastKeyframe(&kept);
+    const KeyframeMatchStats stats = MatchLastKeyframe(&kept);
+    rematched += static_cast<int>(stats.matched_with.size()) > stats.pairs_reused;
   }
-  int count = 0;
-  for (const auto& [frame, m] : moved) count += m;
-  return count;
+  return rematched;
 }
 
 std::vector<FeatureTrack> FeatureMap::Tracks() const {

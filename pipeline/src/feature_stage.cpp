@@ -48,6 +48,7 @@ struct FeatureStage::State {
   std::deque<Job> queue;
   bool stopping = false;
   int dropped = 0;
+  int rematched = 0;
   std::set<FrameId> failed;  // keyframes whose features could not be extracted or added
   std::vector<std::string> warnings;
   std::vector<double> keyframe_ms;
@@ -226,8 +227,11 @@ void FeatureStage::Complete(const FeatureFrameLoader& reload) {
 
 std::vector<FeaturePoint> FeatureStage::Triangulate(const PoseMap& cam_from_world, const CameraModel& camera) {
   if (state_->options.rematch_final_poses) {
-    if (auto moved = state_->map->Rematch(cam_from_world, camera); !moved) {
-      std::lock_guard<std::mutex> lock(state_->mutex);
+    auto moved = state_->map->Rematch(cam_from_world, camera);
+    std::lock_guard<std::mutex> lock(state_->mutex);
+    if (moved) {
+      state_->rematched = *moved;
+    } else {
       state_->warnings.push_back("features: " + moved.error().message);
     }
   }
@@ -252,6 +256,11 @@ std::vector<double> FeatureStage::keyframe_ms() const {
 int FeatureStage::dropped() const {
   std::lock_guard<std::mutex> lock(state_->mutex);
   return state_->dropped;
+}
+
+int FeatureStage::rematched() const {
+  std::lock_guard<std::mutex> lock(state_->mutex);
+  return state_->rematched;
 }
 
 }  // namespace tagsfm

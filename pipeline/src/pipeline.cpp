@@ -188,6 +188,7 @@ Result<PipelineResult> Pipeline::Finish() {
     };
   }
   out.reconstruction = s.recon->Finish(triangulate);
+  if (s.features) s.stats.feature_keyframes_rematched = s.features->rematched();
   s.stats.full_frame_detections = s.tracker->stats().full_frame_detections;
   s.stats.tag_search_recoveries = s.tracker->stats().recoveries;
   s.stats.fine_full_frame_detections = s.tracker->stats().fine_full_frame_detections;

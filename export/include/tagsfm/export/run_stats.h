@@ -24,6 +24,7 @@ struct RunStats {
   std::vector<double> feature_ms;       // feature tracking per feature keyframe
   double triangulation_s = 0;           // feature points from the final poses
   int feature_work_dropped = 0;         // feature keyframes not processed live (done at the end)
+  int feature_keyframes_rematched = 0;  // matched again from their final poses (features.rematch_final_poses)
   double peak_rss_mb = 0;
   std::map<FrameId, std::string> image_names;  // for colmap/images.txt
   std::string mode;                     // "known map", "no map", ...

@@ -43,11 +43,15 @@ struct FeatureMapOptions {
   // the scene: beyond, SIFT descriptors no longer match (and would only
   // yield wrong matches).
   double max_view_angle_deg = 60.0;
-  // Rematch: a keyframe is matched again when the final pose and camera move
-  // its view of the scene by more than this, pixels; a pair of keyframes that
-  // both moved less keeps its matches. Half the default epipolar band: a true
-  // match moved less stays inside it with its own localisation error.
-  double rematch_shift_px = 1.0;
+  // Rematch: a pair of keyframes is matched again when the final poses and
+  // camera move one's view of the scene in the other's image across the
+  // epipolar line by more than this, pixels (at the worst of its sample
+  // rays); the others keep their matches. Twice the default band's
+  // half-width: box walks' pairs moved by up to 4 px, and matching them
+  // again added 0.15-0.4 % points for 1.3x the run time; a room walk's live
+  // map moved them by 7-970 px, and matching again added 78 %
+  // (docs/features.md).
+  double rematch_shift_px = 4.0;
 
   Status Check() const;  // names the wrong field
 };
@@ -61,6 +65,7 @@ struct KeyframeMatchStats {
   int tracks_started = 0;             // new features that started a track with earlier single features
   int tracks_merged = 0;              // two tracks of 2+ views joined through the new keyframe
   int conflicts = 0;                  // matches refused: they would put two features of one keyframe in a track
+  int pairs_reused = 0;               // Rematch: pairs whose earlier matches were kept, not matched again
 };
 
 class FeatureMap {
@@ -76,10 +81,10 @@ class FeatureMap {
   // Builds the tracks again, in the order the keyframes were added, from
   // `cam_from_world` (the final poses) and `camera` (refined intrinsics): the
   // live poses that guided the first matching are less accurate, and the
-  // epipolar band is a few pixels wide. Pairs of keyframes whose views moved
-  // less than rematch_shift_px keep their matches; the others are matched
-  // again. Keyframes without a pose here are left out. Returns how many
-  // keyframes moved.
+  // epipolar band is a few pixels wide. Pairs of keyframes whose relative
+  // geometry moved less than rematch_shift_px keep their matches; the others
+  // are matched again. Keyframes without a pose here are left out. Returns
+  // how many keyframes were matched again with at least one earlier one.
   Result<int> Rematch(const PoseMap& cam_from_world, const CameraModel& camera);
 
   // Tracks of two or more views, each view's feature index and pixel.
@@ -104,9 +109,12 @@ class FeatureMap {
   // (taking a pair's matches from `kept` when there).
   KeyframeMatchStats MatchLastKeyframe(KeptMatches* kept = nullptr);
   void MergeMatches(int first_new, int earlier, const std::vector<FeatureMatch>& matches, KeyframeMatchStats* stats);
-  // Pixels by which `pose` and `camera` move the keyframe's view of its scene
-  // (its sample rays at its typical depth) from where it was matched.
-  double ViewShiftPx(const PosedKeyframe& keyframe, const Rigid3d& pose, const CameraModel& camera) const;
+  // Pixels by which the final poses and camera (final_map's) move a's view of
+  // its scene (its sample rays at its typical depth) in b's image across the
+  // epipolar line, against where the live relative pose put it when the two
+  // were matched.
+  double PairShiftPx(const PosedKeyframe& a, const PosedKeyframe& b, const Rigid3d& final_a, const Rigid3d& final_b,
+                     const FeatureMap& final_map) const;
   // Keyframes among the first `earlier_count` to match `added` with, most
   // overlapping first.
   std::vector<int> OverlappingKeyframes(const PosedKeyframe& added, int earlier_count) const;

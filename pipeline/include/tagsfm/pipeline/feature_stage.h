@@ -97,6 +97,7 @@ class FeatureStage {
   std::vector<std::string> TakeWarnings();   // one line each
   std::vector<double> keyframe_ms() const;   // extraction and matching per keyframe
   int dropped() const;
+  int rematched() const;  // keyframes Triangulate matched again (FeatureMap::Rematch)
 
  private:
   struct State;
