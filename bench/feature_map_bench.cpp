@@ -9,7 +9,7 @@
 // options: --max-features N --contrast C --relative-contrast 0|1 --plain-sift 0|1 --image-scale S --epipolar PX --ratio R
 //          --max-distance D --neighbours N --min-overlap S --max-view-angle DEG --min-angle DEG
 //          --max-view-error PX --max-rms PX --max-relative-sigma S --feature-sigma PX --min-views N
-//          --refine 0|1 --refined-sigma PX --half-window N --min-correlation C --max-fit-sigma PX --depth-factor F --every N --threads N
+//          --refine 0|1 --keep-unrefined 0|1 --refined-sigma PX --half-window N --min-correlation C --max-fit-sigma PX --max-shift PX --depth-factor F --every N --threads N
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -30,6 +30,7 @@
 #include "tagsfm/core/csv_formats.h"
 #include "tagsfm/detect/tag_detector.h"
 #include "tagsfm/eval/scene_geometry.h"
+#include "tagsfm/export/feature_triangulation_json.h"
 #include "tagsfm/feature/feature_map.h"
 
 namespace fs = std::filesystem;
@@ -181,10 +182,12 @@ bool ParseOptions(int argc, char** argv, int first, BenchOptions& o) {
     else if (name == "--feature-sigma") t.feature_sigma_px = v;
     else if (name == "--min-views") t.min_views = static_cast<int>(v);
     else if (name == "--refine") o.map.refine = v != 0;
+    else if (name == "--keep-unrefined") o.map.keep_unrefined_views = v != 0;
     else if (name == "--refined-sigma") o.map.refined_feature_sigma_px = v;
     else if (name == "--half-window") o.map.refinement.half_window = static_cast<int>(v);
     else if (name == "--min-correlation") o.map.refinement.min_correlation = v;
     else if (name == "--max-fit-sigma") o.map.refinement.max_sigma_px = v;
+    else if (name == "--max-shift") o.map.refinement.max_shift_px = v;
     else if (name == "--depth-factor") o.depth_factor = v;
     else if (name == "--every") o.every = static_cast<int>(v);
     else if (name == "--threads") o.threads = static_cast<int>(v);
@@ -223,6 +226,7 @@ struct MapRun {
   double image_mb = 0, descriptor_mb = 0;  // what the keyframes hold
   std::vector<FeatureTrack> tracks;
   std::vector<FeaturePoint> points;
+  FeatureTriangulationStats triangulation;
 };
 
 Result<MapRun> RunMap(const Input& in, const BenchOptions& o) {
@@ -247,7 +251,7 @@ Result<MapRun> RunMap(const Input& in, const BenchOptions& o) {
   }
   const auto t0 = std::chrono::steady_clock::now();
   run.tracks = map->Tracks();
-  run.points = map->Triangulate(run.poses, in.camera, o.threads);
+  run.points = map->Triangulate(run.poses, in.camera, o.threads, &run.triangulation);
   run.triangulate_ms = Ms(t0);
   return run;
 }
@@ -268,6 +272,7 @@ nlohmann::json Summary(const Input& in, const MapRun& run) {
   out["tracks"] = run.tracks.size();
   out["triangulate_ms"] = run.triangulate_ms;
   out["points"] = run.points.size();
+  out["triangulation"] = FeatureTriangulationJson(run.triangulation);
   double sum_sq = 0, sum = 0;
   long long observations = 0;
   std::map<size_t, int> by_length;

@@ -6,6 +6,7 @@
 #include <nlohmann/json.hpp>
 
 #include "tagsfm/core/file_util.h"
+#include "tagsfm/export/feature_triangulation_json.h"
 #include "tagsfm/export/result_writer.h"
 
 namespace tagsfm {
@@ -108,6 +109,7 @@ Status WriteReport(const std::filesystem::path& path, const ReconstructionResult
     report["triangulation_s"] = stats.triangulation_s;
     report["feature_work_dropped"] = stats.feature_work_dropped;
     report["feature_keyframes_rematched"] = stats.feature_keyframes_rematched;
+    report["feature_triangulation"] = FeatureTriangulationJson(stats.feature_triangulation);
   }
   report["peak_rss_mb"] = stats.peak_rss_mb;
   report["mode"] = stats.mode;

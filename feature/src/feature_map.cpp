@@ -292,13 +292,21 @@ std::vector<FeaturePoint> FeatureMap::TriangulateCoarse(const PoseMap& cam_from_
   return TriangulateTracks(Tracks(), cam_from_world, camera, options_.triangulation);
 }
 
-std::vector<FeaturePoint> FeatureMap::Triangulate(const PoseMap& cam_from_world, const CameraModel& camera, int threads) const {
+std::vector<FeaturePoint> FeatureMap::Triangulate(const PoseMap& cam_from_world, const CameraModel& camera, int threads,
+                                                  FeatureTriangulationStats* stats) const {
+  FeatureTriangulationStats counts;
   std::vector<FeatureTrack> tracks = Tracks();
-  if (!options_.refine) return TriangulateTracks(tracks, cam_from_world, camera, options_.triangulation, threads);
+  if (!options_.refine) {
+    std::vector<FeaturePoint> points =
+        TriangulateTracks(tracks, cam_from_world, camera, options_.triangulation, threads, &counts.final_pass);
+    if (stats != nullptr) *stats = counts;
+    return points;
+  }
   // The first points only predict the warps: no sigma filter, SIFT's noise.
   TrackTriangulationOptions first_pass = options_.triangulation;
   first_pass.max_relative_sigma = 1.0;
-  const std::vector<FeaturePoint> first = TriangulateTracks(tracks, cam_from_world, camera, first_pass, threads);
+  const std::vector<FeaturePoint> first =
+      TriangulateTracks(tracks, cam_from_world, camera, first_pass, threads, &counts.first_pass);
   std::unordered_map<FrameId, const cv::Mat*> images;
   for (const PosedKeyframe& k : keyframes_) images[k.features.frame] = &k.features.image;
   const KeyframeImageLookup image_of = [&](FrameId frame) -> const cv::Mat* {
@@ -313,13 +321,18 @@ std::vector<FeaturePoint> FeatureMap::Triangulate(const PoseMap& cam_from_world,
   }
   std::vector<FeatureTrack> refined(first.size());
   ParallelFor(first.size(), threads, [&](size_t i) {
-    refined[i] = RefineTrackViews(tracks[track_of[i]], first[i], cam_from_world, image_of, camera, options_.refinement);
+    refined[i] = RefineTrackViews(tracks[track_of[i]], first[i], cam_from_world, image_of, camera, options_.refinement,
+                                  options_.keep_unrefined_views ? options_.triangulation.feature_sigma_px : 0.0);
   });
   refined.erase(std::remove_if(refined.begin(), refined.end(), [](const FeatureTrack& r) { return r.observations.empty(); }),
                 refined.end());
+  counts.refinement_dropped = static_cast<int>(first.size() - refined.size());
   TrackTriangulationOptions final_pass = options_.triangulation;
   final_pass.feature_sigma_px = options_.refined_feature_sigma_px;
-  return TriangulateTracks(refined, cam_from_world, camera, final_pass, threads);
+  std::vector<FeaturePoint> points =
+      TriangulateTracks(refined, cam_from_world, camera, final_pass, threads, &counts.final_pass);
+  if (stats != nullptr) *stats = counts;
+  return points;
 }
 
 }  // namespace tagsfm

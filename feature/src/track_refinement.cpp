@@ -39,7 +39,7 @@ Eigen::Matrix2d PredictPatchAffine(const Eigen::Vector3d& point, const Eigen::Ve
 
 FeatureTrack RefineTrackViews(const FeatureTrack& track, const FeaturePoint& point, const PoseMap& cam_from_world,
                               const KeyframeImageLookup& image_of, const CameraModel& camera,
-                              const PatchRefinementOptions& options) {
+                              const PatchRefinementOptions& options, double unrefined_sigma_px) {
   struct View {
     TrackObservation observation;
     Rigid3d pose;
@@ -71,6 +71,7 @@ FeatureTrack RefineTrackViews(const FeatureTrack& track, const FeaturePoint& poi
   // Where the point projects in the reference, against its SIFT pixel: the
   // prediction in each other view is offset by the same patch shift.
   const Eigen::Vector2d reference_offset = reference_pixel - camera.Project(reference->pose * point.position);
+  int unrefined = 0;
   for (const View& v : views) {
     if (&v == &*reference) {
       out.observations.push_back(v.observation);
@@ -80,13 +81,21 @@ FeatureTrack RefineTrackViews(const FeatureTrack& track, const FeaturePoint& poi
     start.affine = PredictPatchAffine(point.position, mean_direction, reference->pose, v.pose, camera);
     start.centre = camera.Project(v.pose * point.position) + start.affine * reference_offset;
     const std::optional<PatchFit> fit = RefinePatch(*reference->image, reference_pixel, *v.image, start, options);
-    if (!fit) continue;
+    if (!fit) {
+      if (unrefined_sigma_px <= 0) continue;
+      TrackObservation kept = v.observation;
+      kept.sigma_px = std::max(kept.sigma_px, unrefined_sigma_px);
+      out.observations.push_back(kept);
+      ++unrefined;
+      continue;
+    }
     TrackObservation moved = v.observation;
     moved.pixel = fit->warp.centre;
     moved.sigma_px = fit->sigma_px;
     out.observations.push_back(moved);
   }
-  if (out.observations.size() < 2) out.observations.clear();
+  const int refined = static_cast<int>(out.observations.size()) - unrefined;  // the reference counts
+  if (out.observations.size() < 2 || (refined < 2 && out.observations.size() < 3)) out.observations.clear();
   std::sort(out.observations.begin(), out.observations.end(),
             [](const TrackObservation& a, const TrackObservation& b) { return a.frame < b.frame; });
   return out;

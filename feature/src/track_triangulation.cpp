@@ -22,7 +22,32 @@ Status TrackTriangulationOptions::Check() const {
   return Status::Ok();
 }
 
+TrackTriangulationStats& TrackTriangulationStats::operator+=(const TrackTriangulationStats& other) {
+  tracks += other.tracks;
+  points += other.points;
+  too_few_views += other.too_few_views;
+  no_linear_point += other.no_linear_point;
+  reprojection += other.reprojection;
+  narrow_angle += other.narrow_angle;
+  predicted_sigma += other.predicted_sigma;
+  return *this;
+}
+
 namespace {
+
+enum class Outcome { kPoint, kTooFewViews, kNoLinearPoint, kReprojection, kNarrowAngle, kPredictedSigma };
+
+void Count(Outcome outcome, TrackTriangulationStats* stats) {
+  ++stats->tracks;
+  switch (outcome) {
+    case Outcome::kPoint: ++stats->points; break;
+    case Outcome::kTooFewViews: ++stats->too_few_views; break;
+    case Outcome::kNoLinearPoint: ++stats->no_linear_point; break;
+    case Outcome::kReprojection: ++stats->reprojection; break;
+    case Outcome::kNarrowAngle: ++stats->narrow_angle; break;
+    case Outcome::kPredictedSigma: ++stats->predicted_sigma; break;
+  }
+}
 
 struct View {
   FeatureRay ray;
@@ -58,14 +83,17 @@ double WidestAngleDeg(const std::vector<View>& views, const Eigen::Vector3d& x) 
   return std::acos(std::clamp(widest_cos, -1.0, 1.0)) * 180.0 / M_PI;
 }
 
+// The track's point, or why there is none.
 std::optional<FeaturePoint> TriangulateOne(const FeatureTrack& track, std::vector<View> views, const CameraModel& camera,
-                                           const TrackTriangulationOptions& options) {
+                                           const TrackTriangulationOptions& options, Outcome* outcome) {
   Eigen::Vector3d x;
   std::vector<double> errors;
   while (true) {
+    *outcome = Outcome::kTooFewViews;
     if (static_cast<int>(views.size()) < options.min_views) return std::nullopt;
     const std::vector<FeatureRay> rays = RaysOf(views);
     const std::optional<Eigen::Vector3d> start = TriangulateLinear(rays);
+    *outcome = Outcome::kNoLinearPoint;
     if (!start) return std::nullopt;
     x = RefineAngularError(rays, *start, options.max_iterations);
     errors = ViewErrors(views, x, camera);
@@ -80,20 +108,24 @@ std::optional<FeaturePoint> TriangulateOne(const FeatureTrack& track, std::vecto
   }
   const double n = static_cast<double>(views.size());
   const double rms = std::sqrt(sum_sq / n);
+  *outcome = Outcome::kReprojection;
   if (!(rms <= options.max_reprojection_rms_px)) return std::nullopt;
   const double angle = WidestAngleDeg(views, x);
+  *outcome = Outcome::kNarrowAngle;
   if (!(angle >= options.min_angle_deg)) return std::nullopt;
 
   const std::vector<FeatureRay> rays = RaysOf(views);
   const Eigen::Matrix3d normal = AngularNormalMatrix(rays, x);
   const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eigen(normal);
   const double smallest = eigen.eigenvalues()(0);
+  *outcome = Outcome::kPredictedSigma;
   if (!(smallest > 0)) return std::nullopt;
   double nearest = std::numeric_limits<double>::infinity();
   for (const View& v : views) nearest = std::min(nearest, (x - v.ray.cam_from_world.Center()).norm());
   const double predicted_sigma = options.feature_sigma_px / camera.fx / std::sqrt(smallest);
   if (!(predicted_sigma <= options.max_relative_sigma * nearest)) return std::nullopt;
 
+  *outcome = Outcome::kPoint;
   FeaturePoint p;
   p.track = track.id;
   p.position = x;
@@ -118,8 +150,10 @@ std::optional<FeaturePoint> TriangulateOne(const FeatureTrack& track, std::vecto
 }  // namespace
 
 std::vector<FeaturePoint> TriangulateTracks(const std::vector<FeatureTrack>& tracks, const PoseMap& cam_from_world,
-                                            const CameraModel& camera, const TrackTriangulationOptions& options, int threads) {
+                                            const CameraModel& camera, const TrackTriangulationOptions& options, int threads,
+                                            TrackTriangulationStats* stats) {
   std::vector<std::optional<FeaturePoint>> slots(tracks.size());
+  std::vector<Outcome> outcomes(tracks.size(), Outcome::kTooFewViews);
   ParallelFor(tracks.size(), threads, [&](size_t t) {
     const FeatureTrack& track = tracks[t];
     std::vector<View> views;
@@ -135,8 +169,11 @@ std::vector<FeaturePoint> TriangulateTracks(const std::vector<FeatureTrack>& tra
     if (static_cast<int>(views.size()) < options.min_views) return;
     const std::vector<Eigen::Vector2d> normalized = camera.PixelsToNormalized(pixels);
     for (size_t i = 0; i < views.size(); ++i) views[i].ray.bearing = normalized[i].homogeneous().normalized();
-    slots[t] = TriangulateOne(track, std::move(views), camera, options);
+    slots[t] = TriangulateOne(track, std::move(views), camera, options, &outcomes[t]);
   });
+  if (stats != nullptr) {
+    for (const Outcome outcome : outcomes) Count(outcome, stats);
+  }
   std::vector<FeaturePoint> points;
   for (std::optional<FeaturePoint>& p : slots) {
     if (p) points.push_back(std::move(*p));

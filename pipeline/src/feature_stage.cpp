@@ -225,7 +225,8 @@ void FeatureStage::Complete(const FeatureFrameLoader& reload) {
   s.map = std::move(rebuilt);
 }
 
-std::vector<FeaturePoint> FeatureStage::Triangulate(const PoseMap& cam_from_world, const CameraModel& camera) {
+std::vector<FeaturePoint> FeatureStage::Triangulate(const PoseMap& cam_from_world, const CameraModel& camera,
+                                                    FeatureTriangulationStats* stats) {
   if (state_->options.rematch_final_poses) {
     auto moved = state_->map->Rematch(cam_from_world, camera);
     std::lock_guard<std::mutex> lock(state_->mutex);
@@ -235,7 +236,7 @@ std::vector<FeaturePoint> FeatureStage::Triangulate(const PoseMap& cam_from_worl
       state_->warnings.push_back("features: " + moved.error().message);
     }
   }
-  return state_->map->Triangulate(cam_from_world, camera, state_->options.finish_threads);
+  return state_->map->Triangulate(cam_from_world, camera, state_->options.finish_threads, stats);
 }
 
 LiveCloud FeatureStage::live_cloud() const {

@@ -126,6 +126,20 @@ TEST(ReplayBoxSlow, FeaturePointsLieOnTheTrueSurfaces) {
   EXPECT_GE(report["feature_points"].get<int>(), 2000);
   EXPECT_EQ(report["points"].get<int>(), report["feature_points"].get<int>() + 4 * report["targets_mapped"].get<int>());
   EXPECT_LT(report["feature_reprojection_rms_px"].get<double>(), 0.5);
+  // Where the tracks went adds up: every track of a pass is a point or has
+  // one reason, the final pass takes the first's points the refinement kept,
+  // and the adjustment keeps at most the final pass's points.
+  const nlohmann::json& t = report["feature_triangulation"];
+  for (const char* pass : {"first_pass", "final_pass"}) {
+    const nlohmann::json& c = t[pass];
+    EXPECT_EQ(c["tracks"].get<int>(), c["points"].get<int>() + c["too_few_views"].get<int>() + c["no_linear_point"].get<int>() +
+                                          c["reprojection"].get<int>() + c["narrow_angle"].get<int>() +
+                                          c["predicted_sigma"].get<int>())
+        << pass;
+  }
+  EXPECT_EQ(t["final_pass"]["tracks"].get<int>(), t["first_pass"]["points"].get<int>() - t["refinement_dropped"].get<int>());
+  EXPECT_LE(report["feature_points"].get<int>(), t["final_pass"]["points"].get<int>());
+  EXPECT_GE(report["feature_points"].get<int>(), t["final_pass"]["points"].get<int>() * 9 / 10);
   const CommandRun evaluate = Tagsfm("evaluate " + out.string() + " " + Box().string(), scratch.path());
   ASSERT_EQ(evaluate.exit_code, 0) << evaluate.err;
   const nlohmann::json e = ReadJson(scratch.path() / "stdout.txt");

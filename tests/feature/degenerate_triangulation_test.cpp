@@ -141,5 +141,56 @@ TEST(DegenerateTriangulation, HugeCoordinatesGiveNoWrongPoint) {
   EXPECT_TRUE(points.empty()) << "a point 1e9 m away from a 0.3 m baseline";
 }
 
+// Every track given is counted once, under the first check it fails (or as a
+// point): the counts say why a cloud is thin.
+TEST(DegenerateTriangulation, EachTrackIsCountedUnderWhyItGaveNoPoint) {
+  const Eigen::Vector3d point(0.1, 0.05, 1.0);
+  PoseMap poses = FourCameras();   // frames 0-3, 0.1 m apart: 17 degrees
+  poses[10] = CameraAt(0.0);
+  poses[11] = CameraAt(0.001);     // 1 mm apart: 0.06 degrees
+  poses[20] = poses[21] = CameraAt(0.2);  // one place: parallel rays
+  const auto track_in = [&](std::vector<FrameId> frames, TrackId id) {
+    PoseMap subset;
+    for (FrameId f : frames) subset[f] = poses.count(f) ? poses.at(f) : CameraAt(0.3);
+    return TrackOf(subset, point, id);
+  };
+  const FeatureTrack good = track_in({0, 1, 2, 3}, 1);
+  const FeatureTrack one_posed = track_in({0, 99}, 2);  // frame 99 has no pose
+  FeatureTrack one_far = track_in({0, 2}, 3);
+  one_far.observations[1].pixel += Eigen::Vector2d(0, 10);  // across the epipolar line: dropped, leaving one view
+  const FeatureTrack narrow = track_in({10, 11}, 4);
+  const FeatureTrack parallel = track_in({20, 21}, 5);
+
+  TrackTriangulationOptions options;
+  options.max_relative_sigma = 1.0;  // the sigma check is tested on its own below
+  TrackTriangulationStats stats;
+  const auto points = TriangulateTracks({good, one_posed, one_far, narrow, parallel}, poses, Camera(), options, 2, &stats);
+  ASSERT_EQ(points.size(), 1u);
+  EXPECT_EQ(points[0].track, 1);
+  EXPECT_EQ(stats.tracks, 5);
+  EXPECT_EQ(stats.points, 1);
+  EXPECT_EQ(stats.too_few_views, 2);
+  EXPECT_EQ(stats.narrow_angle, 1);
+  EXPECT_EQ(stats.no_linear_point, 1);
+  EXPECT_EQ(stats.reprojection + stats.predicted_sigma, 0);
+
+  // The same good track against a reprojection limit its 0.3 px of noise
+  // exceeds, then against a sigma limit no point meets.
+  FeatureTrack noisy = good;
+  for (size_t i = 0; i < noisy.observations.size(); ++i) noisy.observations[i].pixel.y() += i % 2 ? 0.3 : -0.3;
+  TrackTriangulationOptions strict = options;
+  strict.max_reprojection_rms_px = 0.01;
+  TrackTriangulationStats strict_stats;
+  EXPECT_TRUE(TriangulateTracks({noisy}, poses, Camera(), strict, 1, &strict_stats).empty());
+  EXPECT_EQ(strict_stats.reprojection, 1);
+  strict = options;
+  strict.max_relative_sigma = 1e-9;
+  strict_stats += stats;  // counts add up over calls
+  EXPECT_TRUE(TriangulateTracks({good}, poses, Camera(), strict, 1, &strict_stats).empty());
+  EXPECT_EQ(strict_stats.predicted_sigma, 1);
+  EXPECT_EQ(strict_stats.tracks, 7);
+  EXPECT_EQ(strict_stats.points, 1);
+}
+
 }  // namespace
 }  // namespace tagsfm

@@ -6,6 +6,7 @@
 // of affine away.
 #include <cmath>
 #include <iostream>
+#include <map>
 #include <random>
 #include <vector>
 
@@ -209,6 +210,63 @@ TEST(PatchRefinement, PredictedAffineIsThePlanesHomography) {
   const Eigen::Matrix2d affine = PredictPatchAffine(point, normal, reference, turned, camera);
   EXPECT_NEAR(affine(0, 0), std::cos(a), 0.02);
   EXPECT_NEAR(affine(1, 1), 1.0, 0.02);
+}
+
+// Three cameras side by side (1 px apart in the image) over a textured
+// fronto-parallel plane; the middle one is the reference. A view whose
+// image is flat refuses its fit: it stays at its own pixel with the
+// detector's noise when asked (unrefined_sigma_px), or is dropped. A track
+// left with no fit at all is kept only with three or more views: two
+// unrefined views cannot tell a wrong match from a right one.
+TEST(TrackRefinement, ARefusedFitKeepsItsPixelAtTheDetectorsNoise) {
+  const CameraModel camera = testing::PinholeCamera(64, 64, 100, 31.5, 31.5);
+  const double depth = 2.0, step = 0.02;  // f * step / depth = 1 px between cameras
+  const std::vector<Blob> texture = Blurred(MakeTexture(3, 11, 40), 0.7);
+  std::map<FrameId, cv::Mat> textured, flat;
+  PoseMap poses;
+  for (FrameId k = 0; k < 3; ++k) {
+    const double t = step * static_cast<double>(k);
+    poses[k] = Rigid3d(Eigen::Quaterniond::Identity(), Eigen::Vector3d(-t, 0, 0));
+    textured[k] = Render(texture, 64, Eigen::Matrix2d::Identity(), {-31.5 + 100 * t / depth, -31.5}, 1, 0, 1, 20 + k);
+    flat[k] = Render({}, 64, Eigen::Matrix2d::Identity(), {0, 0}, 1, 0, 1, 30 + k);
+  }
+  const Eigen::Vector3d truth((31.3 - 31.5) * depth / 100 + step, (32.6 - 31.5) * depth / 100, depth);
+  // SIFT's pixels, 0.3 px off the truth in the non-reference views.
+  FeatureTrack track;
+  track.id = 7;
+  FeaturePoint point;
+  point.track = 7;
+  point.position = truth;
+  for (FrameId k = 0; k < 3; ++k) {
+    const Eigen::Vector2d pixel = camera.Project(poses[k] * truth) + (k == 1 ? Eigen::Vector2d(0, 0) : Eigen::Vector2d(0.3, 0));
+    track.observations.push_back({k, static_cast<int>(k), pixel, {0, 0, 0}, 0});
+    point.observations.emplace_back(k, pixel);
+  }
+  const auto refine = [&](std::map<FrameId, const cv::Mat*> images, double unrefined_sigma_px, const FeatureTrack& t) {
+    const KeyframeImageLookup image_of = [&](FrameId frame) { return images.at(frame); };
+    return RefineTrackViews(t, point, poses, image_of, camera, {}, unrefined_sigma_px);
+  };
+
+  // Frame 2 flat: frame 0 is fitted to the truth, frame 2 keeps its pixel.
+  const FeatureTrack one_refused = refine({{0, &textured[0]}, {1, &textured[1]}, {2, &flat[2]}}, 0.5, track);
+  ASSERT_EQ(one_refused.observations.size(), 3u);
+  EXPECT_LT((one_refused.observations[0].pixel - camera.Project(poses[0] * truth)).norm(), 0.1);
+  EXPECT_LT(one_refused.observations[0].sigma_px, 0.1);
+  EXPECT_EQ(one_refused.observations[2].pixel, track.observations[2].pixel);
+  EXPECT_EQ(one_refused.observations[2].sigma_px, 0.5);
+  // Asked to drop refused views: two are left.
+  const FeatureTrack dropped = refine({{0, &textured[0]}, {1, &textured[1]}, {2, &flat[2]}}, 0.0, track);
+  ASSERT_EQ(dropped.observations.size(), 2u);
+  EXPECT_EQ(dropped.observations[1].frame, 0 + 1);
+  // No fit: three views are kept unrefined, two are not.
+  const std::map<FrameId, const cv::Mat*> none_fit{{0, &flat[0]}, {1, &textured[1]}, {2, &flat[2]}};
+  const FeatureTrack three_unrefined = refine(none_fit, 0.5, track);
+  ASSERT_EQ(three_unrefined.observations.size(), 3u);
+  for (const TrackObservation& o : three_unrefined.observations) EXPECT_EQ(o.pixel, track.observations[static_cast<size_t>(o.frame)].pixel);
+  FeatureTrack two = track;
+  two.observations.erase(two.observations.begin());
+  point.observations.erase(point.observations.begin());
+  EXPECT_TRUE(refine(none_fit, 0.5, two).observations.empty());
 }
 
 }  // namespace

@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "tagsfm/core/csv_formats.h"
+#include "tagsfm/feature/track_triangulation.h"
 
 namespace tagsfm {
 
@@ -25,6 +26,7 @@ struct RunStats {
   double triangulation_s = 0;           // feature points from the final poses
   int feature_work_dropped = 0;         // feature keyframes not processed live (done at the end)
   int feature_keyframes_rematched = 0;  // matched again from their final poses (features.rematch_final_poses)
+  FeatureTriangulationStats feature_triangulation;  // where the tracks went (report.json: why a cloud is thin)
   double peak_rss_mb = 0;
   std::map<FrameId, std::string> image_names;  // for colmap/images.txt
   std::string mode;                     // "known map", "no map", ...

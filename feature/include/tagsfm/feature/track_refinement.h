@@ -28,12 +28,15 @@ Eigen::Matrix2d PredictPatchAffine(const Eigen::Vector3d& point, const Eigen::Ve
                                    const Rigid3d& target, const CameraModel& camera);
 
 // `track`'s views that are in `point` (a first triangulation of it), each
-// but the reference moved to where the reference patch fits; views that
-// fail the fit are dropped. The reference is the view nearest the mean
-// viewing direction. Views are left out when the reference has no image;
-// an empty track when fewer than two remain.
+// but the reference moved to where the reference patch fits. A view whose
+// fit is refused keeps its own pixel with sigma_px = `unrefined_sigma_px`
+// (its detector's noise), or is dropped when that is 0. The reference is
+// the view nearest the mean viewing direction. Views are left out when the
+// reference has no image. An empty track when fewer than two views remain,
+// or when no fit succeeded and fewer than three do: two unrefined views
+// cannot tell a wrong match from a right one, a third must agree with them.
 FeatureTrack RefineTrackViews(const FeatureTrack& track, const FeaturePoint& point, const PoseMap& cam_from_world,
                               const KeyframeImageLookup& image_of, const CameraModel& camera,
-                              const PatchRefinementOptions& options);
+                              const PatchRefinementOptions& options, double unrefined_sigma_px = 0);
 
 }  // namespace tagsfm

@@ -53,6 +53,29 @@ struct TrackTriangulationOptions {
   Status Check() const;  // names the wrong field
 };
 
+// Why tracks gave no point, counted over one TriangulateTracks call (the
+// reasons in the order they are tested; each track counts once).
+struct TrackTriangulationStats {
+  int tracks = 0;
+  int points = 0;
+  int too_few_views = 0;     // under min_views with a pose, or after dropping views beyond max_view_error_px
+  int no_linear_point = 0;   // the DLT found no point (rays parallel or degenerate)
+  int reprojection = 0;      // RMS over the kept views above max_reprojection_rms_px
+  int narrow_angle = 0;      // widest ray angle below min_angle_deg
+  int predicted_sigma = 0;   // predicted sigma above max_relative_sigma of the distance
+
+  TrackTriangulationStats& operator+=(const TrackTriangulationStats& other);
+};
+
+// Where FeatureMap::Triangulate's tracks went: the first pass (SIFT pixels, no sigma
+// filter), the tracks the least-squares refinement dropped
+// (track_refinement.h), the final pass (refined pixels). Without refinement, only `final_pass`.
+struct FeatureTriangulationStats {
+  TrackTriangulationStats first_pass;
+  int refinement_dropped = 0;
+  TrackTriangulationStats final_pass;
+};
+
 // Points of the tracks whose views are in `cam_from_world`; FeaturePoint's
 // track is the track's id, its observations the views kept, its covariance
 // sigma^2 (J^T J)^-1 of the angular residuals with sigma the larger of its
@@ -61,6 +84,6 @@ struct TrackTriangulationOptions {
 // of `threads` (tracks are independent).
 std::vector<FeaturePoint> TriangulateTracks(const std::vector<FeatureTrack>& tracks, const PoseMap& cam_from_world,
                                             const CameraModel& camera, const TrackTriangulationOptions& options,
-                                            int threads = 1);
+                                            int threads = 1, TrackTriangulationStats* stats = nullptr);
 
 }  // namespace tagsfm

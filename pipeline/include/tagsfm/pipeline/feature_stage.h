@@ -90,8 +90,10 @@ class FeatureStage {
   // keyframe order. Call once, before Triangulate.
   void Complete(const FeatureFrameLoader& reload);
   // Points of every track from the final poses (matched again from them
-  // first, with rematch_final_poses).
-  std::vector<FeaturePoint> Triangulate(const PoseMap& cam_from_world, const CameraModel& camera);
+  // first, with rematch_final_poses); `stats`, when given, says where the
+  // tracks went.
+  std::vector<FeaturePoint> Triangulate(const PoseMap& cam_from_world, const CameraModel& camera,
+                                        FeatureTriangulationStats* stats = nullptr);
 
   LiveCloud live_cloud() const;              // any thread
   std::vector<std::string> TakeWarnings();   // one line each
