@@ -385,28 +385,50 @@ double MeasureCornerNoisePx(const std::vector<std::array<Eigen::Vector2d, 4>>& t
   return std::sqrt(squared[squared.size() / 2] / (2.0 * std::log(2.0)));
 }
 
+namespace {
+
+// Why these correspondences cannot give a pose (too few, collinear in the
+// world or in the image), or empty when they can.
+std::string UnusableInput(const std::vector<Eigen::Vector3d>& points_in_world,
+                          const std::vector<Eigen::Vector2d>& normalized) {
+  const size_t n = points_in_world.size();
+  if (n != normalized.size()) return "internal: points and observations differ in number";
+  if (n < 4) return "only " + std::to_string(n) + " corner correspondences (need 4)";
+  const Eigen::Vector3d spread = Spread(points_in_world);
+  if (!(spread(0) > 1e-18) || spread(1) <= 1e-10 * spread(0)) {
+    return "degenerate geometry: the target corners are collinear";
+  }
+  if (ImagePointsCollinear(normalized)) return "degenerate geometry: the corners are collinear in the image";
+  return "";
+}
+
+// IPPE's two solutions from the `support` correspondences (nearly coplanar
+// points), each evaluated as a candidate.
+void AddIppeCandidates(const std::vector<Eigen::Vector3d>& points_in_world, const std::vector<Eigen::Vector2d>& normalized,
+                       const std::vector<int>& support, const CandidateEvaluator& evaluator,
+                       std::vector<Candidate>* candidates) {
+  try {
+    std::vector<cv::Mat> rvecs, tvecs;
+    cv::solvePnPGeneric(ToCv(points_in_world, support), ToCv(normalized, support), cv::Mat::eye(3, 3, CV_64F),
+                        cv::noArray(), rvecs, tvecs, false, cv::SOLVEPNP_IPPE);
+    for (size_t i = 0; i < rvecs.size(); ++i) {
+      const Rigid3d pose = FromRvecTvec(rvecs[i], tvecs[i]);
+      if (pose.translation.allFinite()) candidates->push_back(evaluator.Evaluate(PoseMethod::kIppe, pose, support));
+    }
+  } catch (const cv::Exception&) {
+    // Degenerate input can make OpenCV throw; the other candidates decide.
+  }
+}
+
+}  // namespace
+
 PoseResult EstimatePose(const std::vector<Eigen::Vector3d>& points_in_world,
                         const std::vector<Eigen::Vector2d>& normalized, double fx, double fy,
                         const std::optional<Rigid3d>& previous, const PoseEstimatorOptions& options) {
   PoseResult result;
-  const size_t n = points_in_world.size();
-  if (n != normalized.size()) {
-    result.reason = "internal: points and observations differ in number";
-    return result;
-  }
-  if (n < 4) {
-    result.reason = "only " + std::to_string(n) + " corner correspondences (need 4)";
-    return result;
-  }
+  result.reason = UnusableInput(points_in_world, normalized);
+  if (!result.reason.empty()) return result;
   const Eigen::Vector3d spread = Spread(points_in_world);
-  if (!(spread(0) > 1e-18) || spread(1) <= 1e-10 * spread(0)) {
-    result.reason = "degenerate geometry: the target corners are collinear";
-    return result;
-  }
-  if (ImagePointsCollinear(normalized)) {
-    result.reason = "degenerate geometry: the corners are collinear in the image";
-    return result;
-  }
   const bool nearly_planar = std::sqrt(spread(2) / spread(0)) < options.planarity_ratio;
   const double f = 0.5 * (fx + fy);
 
@@ -463,18 +485,7 @@ PoseResult EstimatePose(const std::vector<Eigen::Vector3d>& points_in_world,
     if (c.passes && c.inliers.size() >= 4 && c.inliers.size() < support.size()) support = c.inliers;
   }
   // 4. IPPE's two planar solutions, for nearly coplanar points.
-  if (nearly_planar) {
-    try {
-      std::vector<cv::Mat> rvecs, tvecs;
-      cv::solvePnPGeneric(ToCv(points_in_world, support), ToCv(normalized, support), identity, cv::noArray(), rvecs,
-                          tvecs, false, cv::SOLVEPNP_IPPE);
-      for (size_t i = 0; i < rvecs.size(); ++i) {
-        const Rigid3d pose = FromRvecTvec(rvecs[i], tvecs[i]);
-        if (pose.translation.allFinite()) candidates.push_back(evaluator.Evaluate(PoseMethod::kIppe, pose, support));
-      }
-    } catch (const cv::Exception&) {
-    }
-  }
+  if (nearly_planar) AddIppeCandidates(points_in_world, normalized, support, evaluator, &candidates);
 
   const Candidate* chosen = Choose(candidates, options.max_rotation_jump_deg);
   if (!chosen) {
