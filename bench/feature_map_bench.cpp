@@ -3,13 +3,14 @@
 // points' distances to the true surfaces. docs/features.md's figures.
 //
 //   feature_map_bench synth REC [options]        poses and surfaces from REC/ground_truth
-//   feature_map_bench poses REC OUT [options]    poses and targets from a replay's OUT (real photos)
+//   feature_map_bench poses REC OUT [options]    poses, targets and camera from a replay's OUT (real photos)
 //   feature_map_bench middlebury DIR [options]   DIR/*_par.txt: exact cameras, no targets
 //
 // options: --max-features N --contrast C --relative-contrast 0|1 --plain-sift 0|1 --image-scale S --epipolar PX --ratio R
 //          --max-distance D --neighbours N --min-overlap S --max-view-angle DEG --min-angle DEG
 //          --max-view-error PX --max-rms PX --max-relative-sigma S --feature-sigma PX --min-views N
-//          --refine 0|1 --keep-unrefined 0|1 --refined-sigma PX --half-window N --min-correlation C --max-fit-sigma PX --max-shift PX --depth-factor F --every N --threads N
+//          --refine 0|1 --keep-unrefined 0|1 --refined-sigma PX --half-window N --min-correlation C --max-fit-sigma PX --max-shift PX --balance-scale 0|1 --max-level N
+//          --depth-factor F --every N --threads N
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -188,6 +189,8 @@ bool ParseOptions(int argc, char** argv, int first, BenchOptions& o) {
     else if (name == "--min-correlation") o.map.refinement.min_correlation = v;
     else if (name == "--max-fit-sigma") o.map.refinement.max_sigma_px = v;
     else if (name == "--max-shift") o.map.refinement.max_shift_px = v;
+    else if (name == "--max-level") o.map.refinement.max_level = static_cast<int>(v);
+    else if (name == "--balance-scale") o.map.refinement.balance_scale = v != 0;
     else if (name == "--depth-factor") o.depth_factor = v;
     else if (name == "--every") o.every = static_cast<int>(v);
     else if (name == "--threads") o.threads = static_cast<int>(v);
@@ -197,6 +200,25 @@ bool ParseOptions(int argc, char** argv, int first, BenchOptions& o) {
     }
   }
   return true;
+}
+
+// The camera the replay in `out` ended with (report.json's "camera", which
+// holds the refined lens when the replay refined it), or `given`: poses
+// adjusted with one lens are consistent with that lens only.
+CameraModel ReplayCamera(const fs::path& out, const CameraModel& given) {
+  std::ifstream file(out / "report.json");
+  if (!file) return given;
+  const nlohmann::json c = nlohmann::json::parse(file).at("camera");
+  CameraModel camera = given;
+  camera.kind = c.at("model") == "fisheye" ? CameraModel::Kind::kFisheye : CameraModel::Kind::kPinhole;
+  camera.width = c.at("width");
+  camera.height = c.at("height");
+  camera.fx = c.at("fx");
+  camera.fy = c.at("fy");
+  camera.cx = c.at("cx");
+  camera.cy = c.at("cy");
+  camera.distortion = c.at("distortion").get<std::vector<double>>();
+  return camera;
 }
 
 // The recording or photo set of the mode; throws with a one-line message.
@@ -210,6 +232,7 @@ Input LoadInput(const std::string& mode, char** argv, int every) {
   } else if (mode == "poses") {
     in = LoadRecording(argv[2], *ReadPosesCsv(fs::path(argv[3]) / "poses.csv"), every);
     in.targets = *ReadTargetsCsv(fs::path(argv[3]) / "targets.csv");
+    in.camera = ReplayCamera(argv[3], in.camera);
   } else if (mode == "middlebury") {
     in = LoadMiddlebury(argv[2]);
   } else {

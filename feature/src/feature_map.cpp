@@ -6,6 +6,8 @@
 #include <string>
 #include <unordered_map>
 
+#include <opencv2/imgproc.hpp>
+
 #include "tagsfm/feature/track_refinement.h"
 #include "parallel_for.h"
 
@@ -72,6 +74,25 @@ Overlap ViewOverlap(const PosedKeyframe& from, const PosedKeyframe& to, const st
   const Eigen::Vector3d b = (centroid - to.cam_from_world.Center()).normalized();
   o.angle_deg = std::acos(std::clamp(a.dot(b), -1.0, 1.0)) * 180.0 / M_PI;
   return o;
+}
+
+// Each keyframe's image halved level by level (cv::pyrDown: pixel i of a
+// level is pixel 2 i of the one below), for the fits across a change of
+// scale; none when every fit is on the full images.
+std::vector<std::vector<cv::Mat>> CoarseLevels(const std::vector<PosedKeyframe>& keyframes,
+                                               const PatchRefinementOptions& options, int threads) {
+  std::vector<std::vector<cv::Mat>> levels(keyframes.size());
+  if (!options.balance_scale) return levels;
+  ParallelFor(keyframes.size(), threads, [&](size_t k) {
+    const cv::Mat* below = &keyframes[k].features.image;
+    levels[k].reserve(static_cast<size_t>(options.max_level));
+    for (int level = 1; level <= options.max_level && below->cols >= 16 && below->rows >= 16; ++level) {
+      levels[k].emplace_back();
+      cv::pyrDown(*below, levels[k].back());
+      below = &levels[k].back();
+    }
+  });
+  return levels;
 }
 
 }  // namespace
@@ -307,11 +328,15 @@ std::vector<FeaturePoint> FeatureMap::Triangulate(const PoseMap& cam_from_world,
   first_pass.max_relative_sigma = 1.0;
   const std::vector<FeaturePoint> first =
       TriangulateTracks(tracks, cam_from_world, camera, first_pass, threads, &counts.first_pass);
-  std::unordered_map<FrameId, const cv::Mat*> images;
-  for (const PosedKeyframe& k : keyframes_) images[k.features.frame] = &k.features.image;
-  const KeyframeImageLookup image_of = [&](FrameId frame) -> const cv::Mat* {
-    const auto it = images.find(frame);
-    return it == images.end() ? nullptr : it->second;
+  const std::vector<std::vector<cv::Mat>> pyramids = CoarseLevels(keyframes_, options_.refinement, threads);
+  std::unordered_map<FrameId, size_t> index_of;
+  for (size_t k = 0; k < keyframes_.size(); ++k) index_of[keyframes_[k].features.frame] = k;
+  const KeyframeImageLookup image_of = [&](FrameId frame, int level) -> const cv::Mat* {
+    const auto it = index_of.find(frame);
+    if (it == index_of.end()) return nullptr;
+    if (level == 0) return &keyframes_[it->second].features.image;
+    const std::vector<cv::Mat>& coarse = pyramids[it->second];
+    return level <= static_cast<int>(coarse.size()) ? &coarse[static_cast<size_t>(level - 1)] : nullptr;
   };
   // Both sorted by track id; every point has its track.
   std::vector<size_t> track_of(first.size());

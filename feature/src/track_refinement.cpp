@@ -1,6 +1,7 @@
 #include "tagsfm/feature/track_refinement.h"
 
 #include <algorithm>
+#include <cmath>
 
 #include <Eigen/Geometry>
 #include <Eigen/LU>
@@ -19,6 +20,39 @@ Eigen::Matrix2d PlaneToPixel(const Eigen::Vector3d& point, const Eigen::Matrix<d
     j.col(k) = (camera.Project(cam_from_world * (point + d)) - camera.Project(cam_from_world * (point - d))) / (2 * step);
   }
   return j;
+}
+
+// RefinePatch with the reference patch on pyramid level `reference_level`
+// and the target on `target_level` (pixel i of level l is pixel 2^l i of
+// the full image); `start` and the fit are in full-image pixels.
+std::optional<PatchFit> RefineOnLevels(const cv::Mat& reference, const Eigen::Vector2d& reference_pixel, const cv::Mat& target,
+                                       PatchWarp start, const PatchRefinementOptions& options, int reference_level,
+                                       int target_level) {
+  const double reference_size = std::ldexp(1.0, reference_level), target_size = std::ldexp(1.0, target_level);
+  start.centre /= target_size;
+  start.affine *= reference_size / target_size;
+  std::optional<PatchFit> fit = RefinePatch(reference, reference_pixel / reference_size, target, start, options);
+  if (fit) {
+    fit->warp.centre *= target_size;
+    fit->warp.affine *= target_size / reference_size;
+    fit->sigma_px *= target_size;
+  }
+  return fit;
+}
+
+// The levels of the reference and the target image that see the surface at
+// about one scale: where the target sees it 1.4x larger or more (affine's
+// scale), its patch comes from a coarser level, and the reference's where
+// it is 1.4x smaller, so neither patch is sampled sparser than its pixels.
+struct FitLevels {
+  int reference, target;
+};
+
+FitLevels BalancedLevels(const Eigen::Matrix2d& affine, const PatchRefinementOptions& options) {
+  if (!options.balance_scale) return {0, 0};
+  const double steps = std::round(0.5 * std::log2(std::max(1e-6, std::abs(affine.determinant()))));
+  const int k = static_cast<int>(std::clamp(steps, -double(options.max_level), double(options.max_level)));
+  return {std::max(0, -k), std::max(0, k)};
 }
 
 }  // namespace
@@ -43,7 +77,6 @@ FeatureTrack RefineTrackViews(const FeatureTrack& track, const FeaturePoint& poi
   struct View {
     TrackObservation observation;
     Rigid3d pose;
-    const cv::Mat* image;
     Eigen::Vector3d direction;  // from the point to the camera, unit
   };
   std::vector<View> views;
@@ -51,13 +84,13 @@ FeatureTrack RefineTrackViews(const FeatureTrack& track, const FeaturePoint& poi
   for (const auto& observation : point.observations) {
     const FrameId frame = observation.first;  // not a structured binding: clang 14 cannot capture one
     const auto pose = cam_from_world.find(frame);
-    const cv::Mat* image = image_of(frame);
+    const cv::Mat* image = image_of(frame, 0);
     if (pose == cam_from_world.end() || image == nullptr || image->empty()) continue;
     const auto o = std::find_if(track.observations.begin(), track.observations.end(),
                                 [&](const TrackObservation& t) { return t.frame == frame; });
     if (o == track.observations.end()) continue;
     const Eigen::Vector3d direction = (pose->second.Center() - point.position).normalized();
-    views.push_back({*o, pose->second, image, direction});
+    views.push_back({*o, pose->second, direction});
     mean_direction += direction;
   }
   FeatureTrack out;
@@ -80,7 +113,13 @@ FeatureTrack RefineTrackViews(const FeatureTrack& track, const FeaturePoint& poi
     PatchWarp start;
     start.affine = PredictPatchAffine(point.position, mean_direction, reference->pose, v.pose, camera);
     start.centre = camera.Project(v.pose * point.position) + start.affine * reference_offset;
-    const std::optional<PatchFit> fit = RefinePatch(*reference->image, reference_pixel, *v.image, start, options);
+    const FitLevels levels = BalancedLevels(start.affine, options);
+    const cv::Mat* reference_image = image_of(reference->observation.frame, levels.reference);
+    const cv::Mat* target = image_of(v.observation.frame, levels.target);
+    const std::optional<PatchFit> fit =
+        reference_image == nullptr || target == nullptr
+            ? std::nullopt
+            : RefineOnLevels(*reference_image, reference_pixel, *target, start, options, levels.reference, levels.target);
     if (!fit) {
       if (unrefined_sigma_px <= 0) continue;
       TrackObservation kept = v.observation;

@@ -117,6 +117,8 @@ void ReadRefinement(YamlFields f, PatchRefinementOptions* o) {
   f.Read("max_shift_px", &o->max_shift_px);
   f.Read("min_correlation", &o->min_correlation);
   f.Read("max_sigma_px", &o->max_sigma_px);
+  f.Read("balance_scale", &o->balance_scale);
+  f.Read("max_level", &o->max_level);
   f.Done();
 }
 

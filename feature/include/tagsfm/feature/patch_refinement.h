@@ -29,6 +29,15 @@ struct PatchRefinementOptions {
   // worse axis, from the fit's residual and normal matrix): an edge or a
   // flat patch is located only along one axis or not at all.
   double max_sigma_px = 0.1;
+  // Fit a view that sees the patch 1.4x larger or smaller than the
+  // reference does (the predicted affine's scale) on the image halved, up
+  // to max_level times (cv::pyrDown), that sees it at the reference's
+  // scale, or the reference on the halved one: otherwise one patch is
+  // sampled sparser than its pixels (aliased) and looks sharper than the
+  // other. The shift and sigma limits then count that level's pixels; the
+  // fit comes back in full-image pixels, its sigma with it.
+  bool balance_scale = true;
+  int max_level = 3;
 
   Status Check() const;  // names the wrong field
 };

@@ -19,8 +19,9 @@
 
 namespace tagsfm {
 
-// The keyframe's grey image, or nullptr when it has none.
-using KeyframeImageLookup = std::function<const cv::Mat*(FrameId)>;
+// The keyframe's grey image at pyramid level `level` (0: full size, each
+// level halved by cv::pyrDown), or nullptr when it has none.
+using KeyframeImageLookup = std::function<const cv::Mat*(FrameId, int level)>;
 
 // The affine map, at `point`, from the reference view's image to the
 // target view's, of a plane through `point` with unit normal `normal`.
@@ -31,8 +32,9 @@ Eigen::Matrix2d PredictPatchAffine(const Eigen::Vector3d& point, const Eigen::Ve
 // but the reference moved to where the reference patch fits. A view whose
 // fit is refused keeps its own pixel with sigma_px = `unrefined_sigma_px`
 // (its detector's noise), or is dropped when that is 0. The reference is
-// the view nearest the mean viewing direction. Views are left out when the
-// reference has no image. An empty track when fewer than two views remain,
+// the view nearest the mean viewing direction; the fits run on the level
+// that the reference feature's scale asks for (PatchRefinementOptions::
+// level_scale_px). Views are left out when they have no image. An empty track when fewer than two views remain,
 // or when no fit succeeded and fewer than three do: two unrefined views
 // cannot tell a wrong match from a right one, a third must agree with them.
 FeatureTrack RefineTrackViews(const FeatureTrack& track, const FeaturePoint& point, const PoseMap& cam_from_world,
