@@ -461,6 +461,220 @@ class LocalUndistortion {
   Eigen::Matrix<double, kTerms, 2> coefficients_;
 };
 
+// How far edge i's band reaches across the edge, in modules. Outside: up
+// to the white ring's outer line, never beyond it: what lies there is
+// unknown (a band reaching 2 modules out measured +0.015 px at margin 2,
+// where it met the paper's edge; 0.8 of a module, the old band, left the
+// ring's level to fewer pixels: bias -0.002 to -0.004 px). Inside: the
+// border and half the row behind it.
+constexpr double kBandOutside = kRingModules, kBandInside = 1.5;
+
+// A point of the tag's square (modules) in the image.
+Eigen::Vector2d SquareToImage(const Eigen::Matrix3d& image_from_square, const Eigen::Vector2d& q) {
+  return (image_from_square * q.homogeneous()).hnormalized().eval();
+}
+
+// The image line through two points of the square, its normal pointing away
+// from the square's centre.
+EdgeLine ImageLineThrough(const Eigen::Matrix3d& image_from_square, const Eigen::Vector2d& center,
+                          const Eigen::Vector2d& a, const Eigen::Vector2d& b) {
+  const Eigen::Vector2d pa = SquareToImage(image_from_square, a), pb = SquareToImage(image_from_square, b);
+  Eigen::Vector2d normal = Eigen::Vector2d(-(pb - pa).y(), (pb - pa).x()).normalized();
+  if (normal.dot(pa - SquareToImage(image_from_square, center)) < 0.0) normal = -normal;
+  return EdgeLine{normal, normal.dot(pa)};
+}
+
+// What the scan of edge i's band needs at each pixel: the edge's axes in the
+// square (modules), the lines a pixel's depths are measured from, and the
+// homography back into the square.
+struct BandScan {
+  int n = 0;                         // modules across the square
+  double end_margin_modules = 0.0;   // kept clear of the corners
+  const LocalUndistortion* undistortion = nullptr;
+  bool half = false;                 // one checkerboard colour only
+  Eigen::Vector2d start;             // the edge's first corner
+  Eigen::Vector2d along;             // one module along the edge
+  Eigen::Vector2d inward;            // one module across it, towards the centre
+  EdgeLine outer_line;               // the edge
+  EdgeLine inner_line;               // the border's inner edge, one module in
+  EdgeLine ring_line;                // the white ring's outer line, kRingModules out
+  Eigen::Matrix3d square_from_image;
+  // `along` through the homography's linear part: grad u's constant part
+  // (see AddBandPixel).
+  Eigen::Vector2d along_row;
+};
+
+BandScan BandScanOf(const Eigen::Matrix3d& image_from_square, int n, int i, double end_margin_modules,
+                    const LocalUndistortion* undistortion, bool half) {
+  BandScan scan;
+  scan.n = n;
+  scan.end_margin_modules = end_margin_modules;
+  scan.undistortion = undistortion;
+  scan.half = half;
+  scan.square_from_image = image_from_square.inverse();
+  const QuadCorners square = CornerSquareCorners(n);
+  const Eigen::Vector2d start = square[i];
+  const Eigen::Vector2d along = (square[(i + 1) % 4] - start) / n;  // one module long
+  const Eigen::Vector2d center(0.5 * n, 0.5 * n);
+  const Eigen::Vector2d inward = (center - 0.5 * (start + square[(i + 1) % 4])) / (0.5 * n);
+  scan.start = start;
+  scan.along = along;
+  scan.inward = inward;
+  scan.outer_line = ImageLineThrough(image_from_square, center, start, start + n * along);
+  scan.inner_line = ImageLineThrough(image_from_square, center, start + inward, start + n * along + inward);
+  scan.ring_line = ImageLineThrough(image_from_square, center, start - kRingModules * inward,
+                                    start + n * along - kRingModules * inward);
+  const Eigen::Matrix3d& h = scan.square_from_image;
+  scan.along_row =
+      Eigen::Vector2d(along.x() * h(0, 0) + along.y() * h(1, 0), along.x() * h(0, 1) + along.y() * h(1, 1));
+  return scan;
+}
+
+// The band's outline in the image (distorted, where its pixels are): the
+// image of a rectangle, a convex quadrilateral, corners in order round it.
+std::array<Eigen::Vector2d, 4> BandQuad(const Eigen::Matrix3d& image_from_square, const BandScan& scan) {
+  std::array<Eigen::Vector2d, 4> quad;
+  int k = 0;
+  for (double u : {scan.end_margin_modules, scan.n - scan.end_margin_modules}) {
+    for (double v : {-kBandOutside, kBandInside}) {
+      const Eigen::Vector2d p = SquareToImage(image_from_square, scan.start + u * scan.along + v * scan.inward);
+      quad[k++] = scan.undistortion != nullptr ? scan.undistortion->Distort(p) : p;
+    }
+  }
+  std::swap(quad[2], quad[3]);  // around the quadrilateral
+  return quad;
+}
+
+// The image rows [first, last] the quadrilateral covers, widened by `pad`
+// and clipped to the image (last < first: none).
+struct RowRange {
+  int first = 0;
+  int last = -1;
+};
+RowRange RowsOf(const std::array<Eigen::Vector2d, 4>& quad, double pad, int image_rows) {
+  double y_min = 1e18, y_max = -1e18;
+  for (const Eigen::Vector2d& p : quad) {
+    y_min = std::min(y_min, p.y());
+    y_max = std::max(y_max, p.y());
+  }
+  return {std::max(0, static_cast<int>(std::floor(y_min - pad))),
+          std::min(image_rows - 1, static_cast<int>(std::ceil(y_max + pad)))};
+}
+
+// Room for the quadrilateral's area and its rows' ends: growing the vector
+// copied each pixel ~twice (with the pixels built in place and thinned in
+// place, ~2 % of the refinement saved).
+size_t BandCapacity(const std::array<Eigen::Vector2d, 4>& quad, bool half, const RowRange& rows, double pad) {
+  double area = 0.0;
+  for (int e = 0; e < 4; ++e) {
+    area += 0.5 * (quad[e].x() * quad[(e + 1) % 4].y() - quad[(e + 1) % 4].x() * quad[e].y());
+  }
+  return static_cast<size_t>(std::abs(area) / (half ? 2 : 1)) +
+         4 * static_cast<size_t>(rows.last - rows.first + 2 + 2 * pad);
+}
+
+// Where the quadrilateral meets row y, widened by `pad`: [low, high], empty
+// (high < low) where it misses the row.
+struct RowSpan {
+  double low = 1e18;
+  double high = -1e18;
+};
+RowSpan SpanOfRow(const std::array<Eigen::Vector2d, 4>& quad, int y, double pad) {
+  RowSpan span;
+  for (int e = 0; e < 4; ++e) {
+    const Eigen::Vector2d& a = quad[e];
+    const Eigen::Vector2d& b = quad[(e + 1) % 4];
+    if (std::abs(a.y() - y) <= pad) {
+      span.low = std::min(span.low, a.x());
+      span.high = std::max(span.high, a.x());
+    }
+    if (a.y() == b.y()) continue;
+    for (double row_y : {y - pad, y + pad}) {
+      const double t = (row_y - a.y()) / (b.y() - a.y());
+      if (t < 0.0 || t > 1.0) continue;
+      const double x = a.x() + t * (b.x() - a.x());
+      span.low = std::min(span.low, x);
+      span.high = std::max(span.high, x);
+    }
+  }
+  return span;
+}
+
+// The pixel at `pixel` (fit coordinates) appended to the band if it lies in
+// it: its place along the edge, the border's depth and a module's length
+// there, and its distance outside the white ring.
+void AddBandPixel(const BandScan& scan, const Eigen::Vector2d& pixel, uchar value, std::vector<BandPixel>* band) {
+  const Eigen::Matrix3d& h = scan.square_from_image;
+  const double inv_w = 1.0 / (h(2, 0) * pixel.x() + h(2, 1) * pixel.y() + h(2, 2));
+  const Eigen::Vector2d q((h(0, 0) * pixel.x() + h(0, 1) * pixel.y() + h(0, 2)) * inv_w,
+                          (h(1, 0) * pixel.x() + h(1, 1) * pixel.y() + h(1, 2)) * inv_w);
+  const double u = (q - scan.start).dot(scan.along);
+  const double v = (q - scan.start).dot(scan.inward);
+  if (u < scan.end_margin_modules || u > scan.n - scan.end_margin_modules || v < -kBandOutside || v > kBandInside) {
+    return;
+  }
+  BandPixel& p = band->emplace_back();
+  p.position = pixel;
+  p.value = value;
+  p.u = u;
+  p.beyond_ring = scan.ring_line.normal.dot(pixel) - scan.ring_line.offset;
+  // Across-edge depth of the border at this pixel: the difference of
+  // its distances to the outer edge line and to the border's inner
+  // line (both straight in the image), not the slanted length of one
+  // module "inward", which under perspective is longer.
+  p.inner_px = (scan.inner_line.normal.dot(pixel) - scan.inner_line.offset) -
+               (scan.outer_line.normal.dot(pixel) - scan.outer_line.offset);
+  // One module along the edge as the blur sees it: the distance across
+  // the (under perspective slanted) boundaries between modules,
+  // 1/|grad u|, from the homography's derivative: grad u = (row of the
+  // homography along the edge - (q . along) h's last row) / w, with the
+  // constant part out of the loop: one division per pixel for q and grad
+  // u, not five (with StartLevels' histogram, ~5 % of the refinement).
+  const double q_along = q.dot(scan.along);
+  const double du_dx = (scan.along_row.x() - q_along * h(2, 0)) * inv_w;
+  const double du_dy = (scan.along_row.y() - q_along * h(2, 1)) * inv_w;
+  p.along_px = 1.0 / std::max(1e-9, std::sqrt(du_dx * du_dx + du_dy * du_dy));
+}
+
+// The band's pixels on image row y (with `half`, those of one checkerboard
+// colour), appended to the band.
+void ScanBandRow(const cv::Mat& image, int y, const std::array<Eigen::Vector2d, 4>& quad, double pad,
+                 const BandScan& scan, std::vector<BandPixel>* band) {
+  const RowSpan span = SpanOfRow(quad, y, pad);
+  if (span.high < span.low) return;
+  const int x0 = std::max(0, static_cast<int>(std::floor(span.low - pad)));
+  const int x1 = std::min(image.cols - 1, static_cast<int>(std::ceil(span.high + pad)));
+  const uchar* row = image.ptr<uchar>(y);
+  const int step = scan.half ? 2 : 1;
+  for (int x = scan.half ? x0 + ((x0 + y) & 1) : x0; x <= x1; x += step) {
+    const Eigen::Vector2d pixel =
+        scan.undistortion != nullptr ? (*scan.undistortion)(Eigen::Vector2d(x, y)) : Eigen::Vector2d(x, y);
+    AddBandPixel(scan, pixel, row[x], band);
+  }
+}
+
+// Positions relative to the band's centroid (see FitEdgeModel), which goes
+// to `origin`; an empty band leaves it as it was.
+void MoveOriginToCentroid(std::vector<BandPixel>* band, Eigen::Vector2d* origin) {
+  if (band->empty()) return;
+  Eigen::Vector2d centroid = Eigen::Vector2d::Zero();
+  for (const BandPixel& p : *band) centroid += p.position;
+  centroid /= static_cast<double>(band->size());
+  for (BandPixel& p : *band) p.position -= centroid;
+  *origin = centroid;
+}
+
+// A big tag's edge has thousands of pixels; 400 evenly spread ones (what a
+// ~40 px tag has) give the line to ~0.01 px at noise 2 and bound the cost.
+void ThinEvenly(std::vector<BandPixel>* band) {
+  constexpr size_t kMaxBandPixels = 400;
+  if (band->size() <= kMaxBandPixels) return;
+  const double stride = static_cast<double>(band->size()) / kMaxBandPixels;
+  // In place (i * stride >= i), not into a second vector.
+  for (size_t i = 0; i < kMaxBandPixels; ++i) (*band)[i] = (*band)[static_cast<size_t>(i * stride)];
+  band->resize(kMaxBandPixels);
+}
+
 // The pixels of edge i's band: from the white ring's outer line (one
 // module outside the edge) to 1.5 modules inside (the border and half the row behind it), clear of the
 // corners. Geometry in undistorted pixels when `undistortion` is given.
@@ -469,131 +683,19 @@ class LocalUndistortion {
 std::vector<BandPixel> CollectBand(const cv::Mat& image, const Eigen::Matrix3d& image_from_square, int n, int i,
                                    double end_margin_modules, const LocalUndistortion* undistortion, bool half,
                                    Eigen::Vector2d* band_origin) {
-  const Eigen::Matrix3d square_from_image = image_from_square.inverse();
-  const QuadCorners square = CornerSquareCorners(n);
-  const Eigen::Vector2d start = square[i];
-  const Eigen::Vector2d along = (square[(i + 1) % 4] - start) / n;  // one module long
-  const Eigen::Vector2d center(0.5 * n, 0.5 * n);
-  const Eigen::Vector2d inward = (center - 0.5 * (start + square[(i + 1) % 4])) / (0.5 * n);
-  // Outside: up to the white ring's outer line, never beyond it: what lies
-  // there is unknown (a band reaching 2 modules out measured +0.015 px at
-  // margin 2, where it met the paper's edge; 0.8 of a module, the old band,
-  // left the ring's level to fewer pixels: bias -0.002 to -0.004 px).
-  constexpr double kOutside = kRingModules, kInside = 1.5;
-  auto to_image = [&](const Eigen::Vector2d& q) { return (image_from_square * q.homogeneous()).hnormalized().eval(); };
-  auto line_through = [&](const Eigen::Vector2d& a, const Eigen::Vector2d& b) {
-    const Eigen::Vector2d pa = to_image(a), pb = to_image(b);
-    Eigen::Vector2d normal = Eigen::Vector2d(-(pb - pa).y(), (pb - pa).x()).normalized();
-    if (normal.dot(pa - to_image(center)) < 0.0) normal = -normal;
-    return EdgeLine{normal, normal.dot(pa)};
-  };
-  const EdgeLine outer_line = line_through(start, start + n * along);
-  const EdgeLine inner_line = line_through(start + inward, start + n * along + inward);
-  const EdgeLine ring_line = line_through(start - kRingModules * inward, start + n * along - kRingModules * inward);
-
+  const BandScan scan = BandScanOf(image_from_square, n, i, end_margin_modules, undistortion, half);
   // The band is the image of a rectangle: a convex quadrilateral, scanned
   // row by row between its sides (in the distorted image its sides bow by
   // less than the padding).
-  std::array<Eigen::Vector2d, 4> quad;
-  int k = 0;
-  for (double u : {end_margin_modules, n - end_margin_modules}) {
-    for (double v : {-kOutside, kInside}) {
-      const Eigen::Vector2d p = to_image(start + u * along + v * inward);
-      quad[k++] = undistortion != nullptr ? undistortion->Distort(p) : p;
-    }
-  }
-  std::swap(quad[2], quad[3]);  // around the quadrilateral
+  const std::array<Eigen::Vector2d, 4> quad = BandQuad(image_from_square, scan);
   const double pad = undistortion != nullptr ? 1.0 : 0.0;
-  double y_min = 1e18, y_max = -1e18;
-  for (const Eigen::Vector2d& p : quad) {
-    y_min = std::min(y_min, p.y());
-    y_max = std::max(y_max, p.y());
-  }
+  const RowRange rows = RowsOf(quad, pad, image.rows);
   std::vector<BandPixel> band;
-  const int y0 = std::max(0, static_cast<int>(std::floor(y_min - pad)));
-  const int y1 = std::min(image.rows - 1, static_cast<int>(std::ceil(y_max + pad)));
-  if (y1 < y0 || y1 - y0 > 4000) return band;
-  // Room for the quadrilateral's area and its rows' ends: growing the vector
-  // copied each pixel ~twice (with the pixels built in place and thinned in
-  // place, ~2 % of the refinement saved).
-  double area = 0.0;
-  for (int e = 0; e < 4; ++e) {
-    area += 0.5 * (quad[e].x() * quad[(e + 1) % 4].y() - quad[(e + 1) % 4].x() * quad[e].y());
-  }
-  band.reserve(static_cast<size_t>(std::abs(area) / (half ? 2 : 1)) + 4 * static_cast<size_t>(y1 - y0 + 2 + 2 * pad));
-  const Eigen::Matrix3d& h = square_from_image;
-  const Eigen::Vector2d along_row(along.x() * h(0, 0) + along.y() * h(1, 0), along.x() * h(0, 1) + along.y() * h(1, 1));
-  for (int y = y0; y <= y1; ++y) {
-    // Where the quadrilateral meets this row (widened by the padding).
-    double x_low = 1e18, x_high = -1e18;
-    for (int e = 0; e < 4; ++e) {
-      const Eigen::Vector2d& a = quad[e];
-      const Eigen::Vector2d& b = quad[(e + 1) % 4];
-      if (std::abs(a.y() - y) <= pad) {
-        x_low = std::min(x_low, a.x());
-        x_high = std::max(x_high, a.x());
-      }
-      if (a.y() == b.y()) continue;
-      for (double row_y : {y - pad, y + pad}) {
-        const double t = (row_y - a.y()) / (b.y() - a.y());
-        if (t < 0.0 || t > 1.0) continue;
-        const double x = a.x() + t * (b.x() - a.x());
-        x_low = std::min(x_low, x);
-        x_high = std::max(x_high, x);
-      }
-    }
-    if (x_high < x_low) continue;
-    const int x0 = std::max(0, static_cast<int>(std::floor(x_low - pad)));
-    const int x1 = std::min(image.cols - 1, static_cast<int>(std::ceil(x_high + pad)));
-    const uchar* row = image.ptr<uchar>(y);
-    const int step = half ? 2 : 1;
-    for (int x = half ? x0 + ((x0 + y) & 1) : x0; x <= x1; x += step) {
-      const Eigen::Vector2d pixel = undistortion != nullptr ? (*undistortion)(Eigen::Vector2d(x, y)) : Eigen::Vector2d(x, y);
-      const double inv_w = 1.0 / (h(2, 0) * pixel.x() + h(2, 1) * pixel.y() + h(2, 2));
-      const Eigen::Vector2d q((h(0, 0) * pixel.x() + h(0, 1) * pixel.y() + h(0, 2)) * inv_w,
-                              (h(1, 0) * pixel.x() + h(1, 1) * pixel.y() + h(1, 2)) * inv_w);
-      const double u = (q - start).dot(along);
-      const double v = (q - start).dot(inward);
-      if (u < end_margin_modules || u > n - end_margin_modules || v < -kOutside || v > kInside) continue;
-      BandPixel& p = band.emplace_back();
-      p.position = pixel;
-      p.value = row[x];
-      p.u = u;
-      p.beyond_ring = ring_line.normal.dot(pixel) - ring_line.offset;
-      // Across-edge depth of the border at this pixel: the difference of
-      // its distances to the outer edge line and to the border's inner
-      // line (both straight in the image), not the slanted length of one
-      // module "inward", which under perspective is longer.
-      p.inner_px = (inner_line.normal.dot(pixel) - inner_line.offset) - (outer_line.normal.dot(pixel) - outer_line.offset);
-      // One module along the edge as the blur sees it: the distance across
-      // the (under perspective slanted) boundaries between modules,
-      // 1/|grad u|, from the homography's derivative: grad u = (row of the
-      // homography along the edge - (q . along) h's last row) / w, with the
-      // constant part out of the loop: one division per pixel for q and grad
-      // u, not five (with StartLevels' histogram, ~5 % of the refinement).
-      const double q_along = q.dot(along);
-      const double du_dx = (along_row.x() - q_along * h(2, 0)) * inv_w;
-      const double du_dy = (along_row.y() - q_along * h(2, 1)) * inv_w;
-      p.along_px = 1.0 / std::max(1e-9, std::sqrt(du_dx * du_dx + du_dy * du_dy));
-    }
-  }
-  // Positions relative to the band's centroid (see FitEdgeModel).
-  if (!band.empty()) {
-    Eigen::Vector2d origin = Eigen::Vector2d::Zero();
-    for (const BandPixel& p : band) origin += p.position;
-    origin /= static_cast<double>(band.size());
-    for (BandPixel& p : band) p.position -= origin;
-    *band_origin = origin;
-  }
-  // A big tag's edge has thousands of pixels; 400 evenly spread ones (what a
-  // ~40 px tag has) give the line to ~0.01 px at noise 2 and bound the cost.
-  constexpr size_t kMaxBandPixels = 400;
-  if (band.size() > kMaxBandPixels) {
-    const double stride = static_cast<double>(band.size()) / kMaxBandPixels;
-    // In place (i * stride >= i), not into a second vector.
-    for (size_t i = 0; i < kMaxBandPixels; ++i) band[i] = band[static_cast<size_t>(i * stride)];
-    band.resize(kMaxBandPixels);
-  }
+  if (rows.last < rows.first || rows.last - rows.first > 4000) return band;
+  band.reserve(BandCapacity(quad, half, rows, pad));
+  for (int y = rows.first; y <= rows.last; ++y) ScanBandRow(image, y, quad, pad, scan, &band);
+  MoveOriginToCentroid(&band, band_origin);
+  ThinEvenly(&band);
   return band;
 }
 
