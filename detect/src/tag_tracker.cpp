@@ -414,27 +414,13 @@ Result<DetectionSet> TagTracker::DetectWholeImage(const cv::Mat& gray8, FrameId 
   return fine_full_detector_->Detect(gray8, frame);
 }
 
-Result<DetectionSet> TagTracker::Track(const cv::Mat& gray8, FrameId frame,
-                                       const std::map<TagId, QuadCorners>& predicted) {
-  ++stats_.frames;
-  const bool scheduled = !have_full_ || frames_since_full_ + 1 >= options_.full_frame_every;
-  const bool backing_off = full_frames_before_retry_ > 0;
-  if (backing_off) {
-    --full_frames_before_retry_;
-    ++stats_.backed_off;
-  }
-  const std::map<TagId, QuadCorners> expected = Predict(frame, predicted);
-  if (scheduled || backing_off || expected.empty() || gray8.empty()) {
-    auto detections = DetectFullFrame(gray8, frame, expected);
-    if (detections) Update(*detections);
-    return detections;
-  }
-  ++frames_since_full_;
-
+// The searches of a tracked frame into searches_: a region round each
+// expected tag (overlapping ones merged), then the entry bands.
+void TagTracker::PlanSearches(const cv::Size& image, const std::map<TagId, QuadCorners>& expected) {
   std::vector<Region> regions;
   const int modules = full_detector_->ModulesAcrossCornerSquare();
   for (const auto& [id, corners] : expected) {
-    const cv::Rect area = RegionOf(corners, options_, gray8.size());
+    const cv::Rect area = RegionOf(corners, options_, image);
     if (area.area() > 0) regions.push_back(Region{area, ModulePx(corners, modules)});
   }
   searches_.clear();
@@ -442,11 +428,14 @@ Result<DetectionSet> TagTracker::Track(const cv::Mat& gray8, FrameId frame,
     searches_.push_back(Search{region.area, false, region.module_px >= options_.region_coarse_module_px, false, {}});
   }
   const size_t region_count = searches_.size();
-  if (options_.search_entry_bands) AddEntryBands(gray8.size(), &searches_);
+  if (options_.search_entry_bands) AddEntryBands(image, &searches_);
   stats_.region_detections += static_cast<int>(region_count);
   stats_.band_detections += static_cast<int>(searches_.size() - region_count);
+}
 
-  // Largest first, so that the threads finish together.
+// searches_ run on the worker threads, largest first, so that the threads
+// finish together; their CPU time goes to the stats.
+Status TagTracker::RunSearches(const cv::Mat& gray8, FrameId frame) {
   std::sort(searches_.begin(), searches_.end(),
             [](const Search& a, const Search& b) { return a.area.area() > b.area.area(); });
   std::vector<std::optional<Error>> errors(per_thread_.size());
@@ -470,39 +459,78 @@ Result<DetectionSet> TagTracker::Track(const cv::Mat& gray8, FrameId frame,
     stats_.region_cpu_ms += region_cpu_ms[t];
     stats_.band_cpu_ms += band_cpu_ms[t];
   }
+  return Status::Ok();
+}
 
-  // Tracked regions first; from the bands only tags not found otherwise.
+// The tags the searches found, moved out of searches_, their ids into
+// `found_ids`: tracked regions first; from the bands only tags not found
+// otherwise.
+DetectionSet TagTracker::TakeFound(FrameId frame, std::set<TagId>* found_ids) {
   DetectionSet result;
   result.frame = frame;
-  std::set<TagId> found_ids;
   for (int pass = 0; pass < 2; ++pass) {
     for (Search& search : searches_) {
       if (search.band != (pass == 1)) continue;
       for (TagDetection& tag : search.found) {
-        if (!found_ids.insert(tag.id).second) continue;
+        if (!found_ids->insert(tag.id).second) continue;
         if (search.band) ++stats_.tags_found_in_bands;
         result.tags.push_back(std::move(tag));
       }
     }
   }
-  // A tag expected wholly in view but not found: a region at the
-  // detector's decimation misses some strongly tilted tags that
-  // region_quad_decimate finds (tilt 70 degrees: up to 4.4 px modules), so
-  // first look again there; else the prediction failed (or the tag is
-  // hidden). Only a full-frame detection tells which, so run one now. A tag
-  // predicted across the border (its white quiet zone, about an eighth of
-  // its extent, included) has left the view: no search. A tag the caller
-  // predicted but the last frame did not have (turning into view, behind an
-  // occluder) is a hint: searched, but not missed.
-  bool lost = false;
+  return result;
+}
+
+// A tag expected wholly in view but not found: a region at the
+// detector's decimation misses some strongly tilted tags that
+// region_quad_decimate finds (tilt 70 degrees: up to 4.4 px modules), so
+// first look again there, appending to `found`; else the prediction failed
+// (or the tag is hidden): *lost. A tag predicted across the border (its
+// white quiet zone, about an eighth of its extent, included) has left the
+// view: no search. A tag the caller predicted but the last frame did not
+// have (turning into view, behind an occluder) is a hint: searched, but not
+// missed.
+Status TagTracker::SearchMissed(const cv::Mat& gray8, FrameId frame, const std::map<TagId, QuadCorners>& expected,
+                                const std::set<TagId>& found_ids, std::vector<TagDetection>* found, bool* lost) {
+  const int modules = full_detector_->ModulesAcrossCornerSquare();
   for (const auto& [id, corners] : expected) {
     if (found_ids.count(id) || !tracks_.count(id) || !ExpectedInView(corners, gray8.size())) continue;
-    const size_t before = result.tags.size();
+    const size_t before = found->size();
     if (ModulePx(corners, modules) >= options_.region_coarse_module_px) {
-      if (Status status = SearchFine(gray8, frame, id, corners, &result.tags); !status) return status.error();
+      if (Status status = SearchFine(gray8, frame, id, corners, found); !status) return status;
     }
-    if (result.tags.size() == before) lost = true;
+    if (found->size() == before) *lost = true;
   }
+  return Status::Ok();
+}
+
+Result<DetectionSet> TagTracker::Track(const cv::Mat& gray8, FrameId frame,
+                                       const std::map<TagId, QuadCorners>& predicted) {
+  ++stats_.frames;
+  const bool scheduled = !have_full_ || frames_since_full_ + 1 >= options_.full_frame_every;
+  const bool backing_off = full_frames_before_retry_ > 0;
+  if (backing_off) {
+    --full_frames_before_retry_;
+    ++stats_.backed_off;
+  }
+  const std::map<TagId, QuadCorners> expected = Predict(frame, predicted);
+  if (scheduled || backing_off || expected.empty() || gray8.empty()) {
+    auto detections = DetectFullFrame(gray8, frame, expected);
+    if (detections) Update(*detections);
+    return detections;
+  }
+  ++frames_since_full_;
+
+  PlanSearches(gray8.size(), expected);
+  if (Status status = RunSearches(gray8, frame); !status) return status.error();
+  std::set<TagId> found_ids;
+  DetectionSet result = TakeFound(frame, &found_ids);
+  bool lost = false;
+  if (Status status = SearchMissed(gray8, frame, expected, found_ids, &result.tags, &lost); !status) {
+    return status.error();
+  }
+  // A tag lost: the prediction failed, or the tag is hidden. Only a
+  // full-frame detection tells which, so run one now.
   if (lost) {
     ++stats_.recoveries;
     if (options_.back_off_after_recovery) {

@@ -28,6 +28,7 @@
 #include <map>
 #include <memory>
 #include <optional>
+#include <set>
 #include <vector>
 
 #include <opencv2/core.hpp>
@@ -176,6 +177,12 @@ class TagTracker {
   bool FewSmallTags(const std::vector<TagDetection>& found) const;
   bool FewSmallTracked() const;
   void Update(const DetectionSet& detections);
+  // Track's steps on a tracked frame.
+  void PlanSearches(const cv::Size& image, const std::map<TagId, QuadCorners>& expected);
+  Status RunSearches(const cv::Mat& gray8, FrameId frame);
+  DetectionSet TakeFound(FrameId frame, std::set<TagId>* found_ids);
+  Status SearchMissed(const cv::Mat& gray8, FrameId frame, const std::map<TagId, QuadCorners>& expected,
+                      const std::set<TagId>& found_ids, std::vector<TagDetection>* found, bool* lost);
 
   TagTrackerOptions options_;
   std::unique_ptr<TagDetector> full_detector_;
