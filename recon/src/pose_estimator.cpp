@@ -402,6 +402,42 @@ std::string UnusableInput(const std::vector<Eigen::Vector3d>& points_in_world,
   return "";
 }
 
+// EPnP or SQPnP on the `use` correspondences, its pose evaluated as a
+// candidate; nothing when the solver fails.
+void AddPnpCandidate(const std::vector<Eigen::Vector3d>& points_in_world, const std::vector<Eigen::Vector2d>& normalized,
+                     PoseMethod method, const std::vector<int>& use, const CandidateEvaluator& evaluator,
+                     std::vector<Candidate>* candidates) {
+  try {
+    cv::Mat rvec, tvec;
+    const bool ok = cv::solvePnP(ToCv(points_in_world, use), ToCv(normalized, use), cv::Mat::eye(3, 3, CV_64F), cv::noArray(),
+                                 rvec, tvec, false, method == PoseMethod::kSqpnp ? cv::SOLVEPNP_SQPNP : cv::SOLVEPNP_EPNP);
+    const Rigid3d pose = ok ? FromRvecTvec(rvec, tvec) : Rigid3d();
+    if (ok && pose.translation.allFinite()) candidates->push_back(evaluator.Evaluate(method, pose, use));
+  } catch (const cv::Exception&) {
+    // Degenerate samples can make OpenCV throw; the other solvers decide.
+  }
+}
+
+// EPnP inside RANSAC over all correspondences (f: the focal length that
+// turns the pixel threshold into normalised units), evaluated on its
+// inliers; nothing when RANSAC fails.
+void AddRansacCandidate(const std::vector<Eigen::Vector3d>& points_in_world, const std::vector<Eigen::Vector2d>& normalized,
+                        const std::vector<int>& all, double f, const PoseEstimatorOptions& options,
+                        const CandidateEvaluator& evaluator, std::vector<Candidate>* candidates) {
+  try {
+    cv::Mat rvec, tvec;
+    std::vector<int> support;
+    const bool ok = cv::solvePnPRansac(
+        ToCv(points_in_world, all), ToCv(normalized, all), cv::Mat::eye(3, 3, CV_64F), cv::noArray(), rvec, tvec, false,
+        options.ransac_iterations, static_cast<float>(std::max(options.ransac_threshold_px, 4.0 * options.corner_sigma_px) / f),
+        options.ransac_confidence, support, cv::SOLVEPNP_EPNP);
+    const Rigid3d pose = ok ? FromRvecTvec(rvec, tvec) : Rigid3d();
+    if (ok && pose.translation.allFinite()) candidates->push_back(evaluator.Evaluate(PoseMethod::kEpnp, pose, support));
+  } catch (const cv::Exception&) {
+    // Degenerate samples can make OpenCV throw; the other solvers decide.
+  }
+}
+
 // IPPE's two solutions from the `support` correspondences (nearly coplanar
 // points), each evaluated as a candidate.
 void AddIppeCandidates(const std::vector<Eigen::Vector3d>& points_in_world, const std::vector<Eigen::Vector2d>& normalized,
@@ -430,13 +466,9 @@ PoseResult EstimatePose(const std::vector<Eigen::Vector3d>& points_in_world,
   if (!result.reason.empty()) return result;
   const Eigen::Vector3d spread = Spread(points_in_world);
   const bool nearly_planar = std::sqrt(spread(2) / spread(0)) < options.planarity_ratio;
-  const double f = 0.5 * (fx + fy);
 
   CandidateEvaluator evaluator(points_in_world, normalized, fx, fy, previous, options);
   const std::vector<int> all = evaluator.AllIndices();
-  const auto object_all = ToCv(points_in_world, all);
-  const auto image_all = ToCv(normalized, all);
-  const cv::Mat identity = cv::Mat::eye(3, 3, CV_64F);
   std::vector<Candidate> candidates;
 
   // 1. EPnP on all correspondences (tag ids make outliers rare, and one
@@ -444,40 +476,19 @@ PoseResult EstimatePose(const std::vector<Eigen::Vector3d>& points_in_world,
   // fails a check or the points are nearly coplanar (where EPnP + LM was
   // measured 25-40 degrees off); 3. only when neither fits every
   // correspondence, EPnP inside RANSAC and SQPnP on its inliers.
-  auto solve = [&](PoseMethod method, const std::vector<int>& use, bool ransac) {
-    try {
-      cv::Mat rvec, tvec;
-      std::vector<int> support;
-      bool ok = false;
-      if (ransac) {
-        ok = cv::solvePnPRansac(object_all, image_all, identity, cv::noArray(), rvec, tvec, false,
-                                options.ransac_iterations,
-                                static_cast<float>(std::max(options.ransac_threshold_px, 4.0 * options.corner_sigma_px) / f),
-                                options.ransac_confidence, support, cv::SOLVEPNP_EPNP);
-      } else {
-        support = use;
-        ok = cv::solvePnP(ToCv(points_in_world, use), ToCv(normalized, use), identity, cv::noArray(), rvec, tvec,
-                          false, method == PoseMethod::kSqpnp ? cv::SOLVEPNP_SQPNP : cv::SOLVEPNP_EPNP);
-      }
-      const Rigid3d pose = ok ? FromRvecTvec(rvec, tvec) : Rigid3d();
-      if (ok && pose.translation.allFinite()) candidates.push_back(evaluator.Evaluate(method, pose, support));
-    } catch (const cv::Exception&) {
-      // Degenerate samples can make OpenCV throw; the other solvers decide.
-    }
-  };
   auto fits_all = [&candidates] {
     for (const auto& c : candidates) {
       if (c.passes && c.inlier_ratio >= 1.0) return true;
     }
     return false;
   };
-  solve(PoseMethod::kEpnp, all, false);
+  AddPnpCandidate(points_in_world, normalized, PoseMethod::kEpnp, all, evaluator, &candidates);
   const bool epnp_passed = !candidates.empty() && candidates.back().passes;
-  if (!epnp_passed || nearly_planar) solve(PoseMethod::kSqpnp, all, false);
+  if (!epnp_passed || nearly_planar) AddPnpCandidate(points_in_world, normalized, PoseMethod::kSqpnp, all, evaluator, &candidates);
   if (!fits_all()) {
-    solve(PoseMethod::kEpnp, all, true);
+    AddRansacCandidate(points_in_world, normalized, all, 0.5 * (fx + fy), options, evaluator, &candidates);
     if (!candidates.empty() && candidates.back().passes && candidates.back().inliers.size() < all.size()) {
-      solve(PoseMethod::kSqpnp, candidates.back().inliers, false);
+      AddPnpCandidate(points_in_world, normalized, PoseMethod::kSqpnp, candidates.back().inliers, evaluator, &candidates);
     }
   }
   std::vector<int> support = all;
