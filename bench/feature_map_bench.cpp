@@ -6,7 +6,7 @@
 //   feature_map_bench poses REC OUT [options]    poses, targets and camera from a replay's OUT (real photos)
 //   feature_map_bench middlebury DIR [options]   DIR/*_par.txt: exact cameras, no targets
 //
-// options: --max-features N --contrast C --relative-contrast 0|1 --plain-sift 0|1 --image-scale S --epipolar PX --ratio R
+// options: --max-features N --contrast C --relative-contrast 0|1 --plain-sift 0|1 --image-scale S --epipolar PX --ratio R --grid-cell PX
 //          --max-distance D --neighbours N --min-overlap S --max-view-angle DEG --min-angle DEG
 //          --max-view-error PX --max-rms PX --max-relative-sigma S --feature-sigma PX --min-views N
 //          --refine 0|1 --keep-unrefined 0|1 --refined-sigma PX --half-window N --min-correlation C --max-fit-sigma PX --max-shift PX --balance-scale 0|1 --max-level N
@@ -172,6 +172,7 @@ bool ParseOptions(int argc, char** argv, int first, BenchOptions& o) {
     else if (name == "--image-scale") o.extractor.image_scale = v;
     else if (name == "--epipolar") o.map.matcher.epipolar_px = v;
     else if (name == "--ratio") o.map.matcher.ratio = v;
+    else if (name == "--grid-cell") o.map.matcher.grid_cell_px = static_cast<int>(v);
     else if (name == "--max-distance") o.map.matcher.max_descriptor_distance = v;
     else if (name == "--neighbours") o.map.max_neighbours = static_cast<int>(v);
     else if (name == "--min-overlap") o.map.min_overlap = v;
