@@ -117,10 +117,15 @@ std::optional<PatchFit> RefinePatch(const cv::Mat& reference, const Eigen::Vecto
       const double x = offsets[i].x(), y = offsets[i].y();
       Vector8d j;
       j << gain * gx, gain * gy, gain * gx * x, gain * gx * y, gain * gy * x, gain * gy * y, 1.0, s;
-      normal.noalias() += j * j.transpose();  // fixed size: unrolled, unlike rankUpdate
-      rhs += j * r;
+      // The upper triangle only (the normal matrix is symmetric and each
+      // product is exact either way round), mirrored after the patch.
+      for (int a = 0; a < 8; ++a) {
+        for (int b = a; b < 8; ++b) normal(a, b) += j(a) * j(b);
+        rhs(a) += j(a) * r;
+      }
       sum_sq += r * r;
     }
+    normal.triangularView<Eigen::StrictlyLower>() = normal.transpose();
     const Eigen::LDLT<Matrix8d> ldlt(normal);
     if (ldlt.info() != Eigen::Success) return std::nullopt;
     const Vector8d delta = ldlt.solve(rhs);
