@@ -53,9 +53,11 @@ void DrawPanel(cv::Mat& canvas, const cv::Rect& area, const Panel& panel, const 
   const double margin = 30;
   const double span = std::max({max_u - min_u, max_v - min_v, 1e-6});
   const double scale = std::min(area.width - 2 * margin, area.height - 2 * margin) / span;
+  // Plain copies: clang 14 cannot capture a structured binding.
+  const double u0 = min_u, v0 = min_v;
   const auto to_px = [&](const Eigen::Vector3d& p) {
-    return cv::Point(static_cast<int>(area.x + margin + (p[panel.axis_u] - min_u) * scale),
-                     static_cast<int>(area.y + area.height - margin - (p[panel.axis_v] - min_v) * scale));
+    return cv::Point(static_cast<int>(area.x + margin + (p[panel.axis_u] - u0) * scale),
+                     static_cast<int>(area.y + area.height - margin - (p[panel.axis_v] - v0) * scale));
   };
   cv::Mat view = canvas(area);
   const cv::Point offset(area.x, area.y);

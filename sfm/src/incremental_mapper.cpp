@@ -59,7 +59,7 @@ struct VerifiedPair {
 class Mapper {
  public:
   Mapper(const std::vector<KeyframeFeatures>& views, const CameraModel& camera, const IncrementalMapperOptions& options)
-      : views_(views), camera_(camera), options_(options), focal_(0.5 * (camera.fx + camera.fy)) {
+      : views_(views), options_(options), focal_(0.5 * (camera.fx + camera.fy)) {
     corr_.resize(views.size());
     for (const KeyframeFeatures& v : views) {
       SfmImage image;
@@ -97,7 +97,6 @@ class Mapper {
   int VisiblePoints(ImageIdx image) const;
 
   const std::vector<KeyframeFeatures>& views_;
-  const CameraModel& camera_;
   const IncrementalMapperOptions& options_;
   const double focal_;
   SfmModel model_;
