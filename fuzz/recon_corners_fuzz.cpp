@@ -29,7 +29,7 @@ Rigid3d WorldFromTag(int id) {
 double AnyDouble(FuzzedDataProvider& in) {
   double v = 0;
   const auto bytes = in.ConsumeBytes<uint8_t>(sizeof v);
-  std::memcpy(&v, bytes.data(), bytes.size());
+  if (!bytes.empty()) std::memcpy(&v, bytes.data(), bytes.size());  // data() may be null
   return v;
 }
 

@@ -189,6 +189,9 @@ Result<PipelineOptions> ReadPipelineOptionsFile(const std::filesystem::path& fil
   } catch (const YAML::Exception&) {
     return MakeError(file.string() + ": not valid YAML");
   }
+  // A scalar or list at the top has no `pipeline` key: yaml-cpp throws on
+  // the lookup (found by the run_config fuzz target).
+  if (!root.IsNull() && !root.IsMap()) return MakeError(file.string() + ": the top level must be a mapping of blocks");
   PipelineOptions options;
   if (Status s = ReadPipelineOptions(root["pipeline"], file, &options); !s) return s.error();
   return options;

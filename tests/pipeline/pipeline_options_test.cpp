@@ -126,6 +126,15 @@ TEST_F(PipelineOptionsFile, TheDocumentedBlockReadsAndHoldsTheDefaults) {
   EXPECT_DOUBLE_EQ(options->feedback.point_error_goal_m, defaults.feedback.point_error_goal_m);
 }
 
+// Found by the run_config fuzz target: a file whose top level is a scalar
+// or a list made yaml-cpp throw on the `pipeline` lookup.
+TEST_F(PipelineOptionsFile, ATopLevelThatIsNoMappingIsAOneLineError) {
+  const std::string expected = file_.string() + ": the top level must be a mapping of blocks";
+  EXPECT_EQ(ErrorOf("captur\xff\xff\xff" "min_overlap\n"), expected);  // the fuzzer's input, shortened
+  EXPECT_EQ(ErrorOf("- pipeline\n- 3\n"), expected);
+  EXPECT_TRUE(Read("")) << "an empty file keeps the defaults";
+}
+
 TEST(PipelineOptionsFileMissing, IsNamed) {
   auto options = ReadPipelineOptionsFile("/nonexistent/options.yaml");
   ASSERT_FALSE(options);
