@@ -1,4 +1,5 @@
 #include "run_config.h"
+#include "tagsfm/capture/yaml_file.h"
 
 #include <algorithm>
 #include <functional>
@@ -71,7 +72,7 @@ std::vector<std::string> ReadRunBlock(const YAML::Node& run, const std::string& 
     }
   }
   for (const auto& entry : run) {
-    const std::string key = entry.first.as<std::string>();
+    const std::string key = YamlKeyText(entry.first);
     const auto& fields = RunFields();
     if (std::none_of(fields.begin(), fields.end(), [&](const auto& f) { return f.first == key; })) {
       errors.push_back(file + ": run." + key + " is not a field of run: (see firmware_config/README.md)");

@@ -8,6 +8,7 @@
 #include <yaml-cpp/yaml.h>
 
 #include "run_config.h"
+#include "tagsfm/capture/yaml_file.h"
 
 namespace tagsfm {
 namespace {
@@ -21,7 +22,7 @@ void CollectLeaves(const YAML::Node& node, LeafPath& path, std::vector<LeafPath>
     return;
   }
   for (const auto& entry : node) {
-    path.push_back(entry.first.as<std::string>());
+    path.push_back(YamlKeyText(entry.first));
     CollectLeaves(entry.second, path, leaves);
     path.pop_back();
   }
@@ -89,7 +90,7 @@ std::vector<std::string> CheckRunConfigFile(const std::filesystem::path& path) {
   std::vector<std::string> errors;
   const std::vector<std::string> blocks = {"capture", "camera", "targets", "run", "pipeline", "format"};
   for (const auto& entry : root) {
-    const std::string key = entry.first.as<std::string>();
+    const std::string key = YamlKeyText(entry.first);
     if (std::find(blocks.begin(), blocks.end(), key) == blocks.end()) {
       errors.push_back(file + ": " + key + ": is not a block of a run config (capture, camera, targets, run, pipeline)");
     }

@@ -3,6 +3,8 @@
 #include <cmath>
 #include <type_traits>
 
+#include "tagsfm/capture/yaml_file.h"
+
 namespace tagsfm {
 namespace {
 
@@ -64,7 +66,7 @@ YamlFields YamlFields::Block(const char* name) {
 void YamlFields::Done() {
   if (!*status_ || !IsMap(node_)) return;
   for (const auto& item : node_) {
-    const std::string key = item.first.as<std::string>();
+    const std::string key = YamlKeyText(item.first);
     if (!known_.count(key)) return Fail(key, "unknown field");
   }
 }

@@ -127,12 +127,15 @@ TEST_F(PipelineOptionsFile, TheDocumentedBlockReadsAndHoldsTheDefaults) {
 }
 
 // Found by the run_config fuzz target: a file whose top level is a scalar
-// or a list made yaml-cpp throw on the `pipeline` lookup.
-TEST_F(PipelineOptionsFile, ATopLevelThatIsNoMappingIsAOneLineError) {
+// or a list, or a field whose name is not text, made yaml-cpp throw.
+TEST_F(PipelineOptionsFile, ATopLevelThatIsNoMappingOrAKeyThatIsNoTextIsAOneLineError) {
   const std::string expected = file_.string() + ": the top level must be a mapping of blocks";
   EXPECT_EQ(ErrorOf("captur\xff\xff\xff" "min_overlap\n"), expected);  // the fuzzer's input, shortened
   EXPECT_EQ(ErrorOf("- pipeline\n- 3\n"), expected);
   EXPECT_TRUE(Read("")) << "an empty file keeps the defaults";
+  // A complex key ("? [a, b]") made the unknown-field check throw.
+  EXPECT_EQ(ErrorOf("pipeline:\n  recon:\n    ? [a, b]\n    : 5\n"),
+            file_.string() + ": pipeline.recon.[a, b]: unknown field");
 }
 
 TEST(PipelineOptionsFileMissing, IsNamed) {

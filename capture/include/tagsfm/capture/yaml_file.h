@@ -15,6 +15,11 @@ namespace tagsfm {
 // the top level" for anything but a mapping (an empty file included).
 Result<YAML::Node> LoadYamlFile(const std::string& file, bool allow_empty = false);
 
+// A mapping key as text for messages and lookups: a plain key as written, a
+// complex one ("? [a, b]" or "? {a: 1}") as YAML, where as<std::string>()
+// would throw (found by fuzzing the run config).
+inline std::string YamlKeyText(const YAML::Node& key) { return key.IsScalar() ? key.Scalar() : YAML::Dump(key); }
+
 // Reads node[key] as T into *out. A missing key is an error only when
 // `required` ("WHEREkey is missing"); a value of the wrong type always is
 // ("WHEREkey has the wrong type: 'VALUE'"). `where` is the prefix that names
