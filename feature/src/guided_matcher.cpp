@@ -82,10 +82,14 @@ class FeatureGrid {
       for (int x = x0; x <= x1; ++x) visit(y * cols_ + x);
     }
   }
+  // Calls visit(item, slot) for the items in `cell`; slots number the
+  // items cell by cell (row-major), so neighbouring cells' items have
+  // neighbouring slots.
   template <typename Visit>
   void ForItems(int cell, Visit&& visit) const {
-    for (int k = start_[static_cast<size_t>(cell)]; k < start_[static_cast<size_t>(cell) + 1]; ++k) visit(items_[static_cast<size_t>(k)]);
+    for (int k = start_[static_cast<size_t>(cell)]; k < start_[static_cast<size_t>(cell) + 1]; ++k) visit(items_[static_cast<size_t>(k)], k);
   }
+  const std::vector<int>& ItemsBySlot() const { return items_; }
 
  private:
   int Cell(const Eigen::Vector2d& p) const {
@@ -185,9 +189,23 @@ GuidedMatches MatchGuided(const PosedKeyframe& first, const PosedKeyframe& secon
   const Eigen::Vector2d lo = grid.lo() - Eigen::Vector2d::Constant(band), hi = grid.hi() + Eigen::Vector2d::Constant(band);
   const double min_z = 1e-3 * first.depth.near_m;
 
+  // The second keyframe's descriptors and pixels in the grid's slot order,
+  // and the first's features visited cell by cell: neighbouring features
+  // have neighbouring epipolar segments, whose candidates then sit together
+  // in memory (a 1280x720 keyframe's descriptors, ~10 MB, exceed the cache).
+  const std::vector<int>& by_slot = grid.ItemsBySlot();
+  cv::Mat slot_descriptors(n2, 128, CV_32F);
+  std::vector<Eigen::Vector2d> slot_pixels(static_cast<size_t>(n2));
+  for (int k = 0; k < n2; ++k) {
+    const int j = by_slot[static_cast<size_t>(k)];
+    std::copy_n(second.features.descriptors.ptr<float>(j), 128, slot_descriptors.ptr<float>(k));
+    slot_pixels[static_cast<size_t>(k)] = second.undistorted[static_cast<size_t>(j)];
+  }
+  const std::vector<int> first_order = FeatureGrid(first.undistorted, cell).ItemsBySlot();
+
   std::vector<BestTwo> forward(static_cast<size_t>(n1)), backward(static_cast<size_t>(n2));
   std::vector<int> stamp(static_cast<size_t>(grid.cells()), -1);
-  for (int i = 0; i < n1; ++i) {
+  for (const int i : first_order) {
     const Eigen::Vector2d& u = first.undistorted[static_cast<size_t>(i)];
     const Eigen::Vector3d rm = r * Eigen::Vector3d((u.x() - camera.cx) / camera.fx, (u.y() - camera.cy) / camera.fy, 1.0);
     // Depths along the first camera's axis at which the ray is in front of
@@ -214,10 +232,10 @@ GuidedMatches MatchGuided(const PosedKeyframe& first, const PosedKeyframe& secon
       grid.ForCellsInBox(c, band + 0.25 * cell, [&](int cell_index) {
         if (stamp[static_cast<size_t>(cell_index)] == i) return;
         stamp[static_cast<size_t>(cell_index)] = i;
-        grid.ForItems(cell_index, [&](int j) {
-          if (segment.SquaredDistance(second.undistorted[static_cast<size_t>(j)]) > band2) return;
+        grid.ForItems(cell_index, [&](int j, int slot) {
+          if (segment.SquaredDistance(slot_pixels[static_cast<size_t>(slot)]) > band2) return;
           ++out.candidates;
-          const float d = DescriptorDistance(desc1, second.features.descriptors.ptr<float>(j));
+          const float d = DescriptorDistance(desc1, slot_descriptors.ptr<float>(slot));
           f.Offer(j, d);
           backward[static_cast<size_t>(j)].Offer(i, d);
         });
