@@ -156,7 +156,7 @@ struct BenchOptions {
   FeatureMapOptions map;
   double depth_factor = 2.0;
   int every = 1;
-  int threads = 1;  // for the triangulation and refinement
+  int threads = 1;  // for the matching, triangulation and refinement
 };
 
 // "--name value" pairs after the mode's arguments; false on an unknown name.
@@ -266,7 +266,8 @@ Result<MapRun> RunMap(const Input& in, const BenchOptions& o) {
     run.image_mb += static_cast<double>(f->image.total() * f->image.elemSize()) / 1e6;
     run.descriptor_mb += static_cast<double>(f->descriptors.total() * f->descriptors.elemSize()) / 1e6;
     t0 = std::chrono::steady_clock::now();
-    auto stats = map->AddKeyframe(std::move(*f), image.cam_from_world, DepthOf(in, image.cam_from_world, o.depth_factor));
+    auto stats = map->AddKeyframe(std::move(*f), image.cam_from_world, DepthOf(in, image.cam_from_world, o.depth_factor),
+                                  o.threads);
     run.add_ms += Ms(t0);
     if (!stats) return stats.error();
     run.matches += stats->matches;

@@ -162,17 +162,17 @@ bool FeatureMap::Union(int a, int b) {
 }
 
 Result<KeyframeMatchStats> FeatureMap::AddKeyframe(KeyframeFeatures features, const Rigid3d& cam_from_world,
-                                                   const DepthRange& depth) {
+                                                   const DepthRange& depth, int threads) {
   for (const PosedKeyframe& k : keyframes_) {
     if (k.features.frame == features.frame) return MakeError("frame " + std::to_string(features.frame) + ": already a keyframe of the feature map");
   }
   auto posed = MakePosedKeyframe(std::move(features), cam_from_world, depth, camera_);
   if (!posed) return posed.error();
   keyframes_.push_back(std::move(*posed));
-  return MatchLastKeyframe();
+  return MatchLastKeyframe(nullptr, threads);
 }
 
-KeyframeMatchStats FeatureMap::MatchLastKeyframe(KeptMatches* kept) {
+KeyframeMatchStats FeatureMap::MatchLastKeyframe(KeptMatches* kept, int threads) {
   const int index = static_cast<int>(keyframes_.size()) - 1;
   const PosedKeyframe& added = keyframes_.back();
   KeyframeMatchStats stats;
@@ -189,20 +189,34 @@ KeyframeMatchStats FeatureMap::MatchLastKeyframe(KeptMatches* kept) {
   members_.resize(parent_.size());
   pair_matches_.emplace_back();
 
-  for (int k : neighbours) {
-    const PosedKeyframe& earlier = keyframes_[static_cast<size_t>(k)];
-    stats.matched_with.push_back(earlier.features.frame);
-    std::vector<FeatureMatch> matches;
-    const auto reused = kept ? kept->find({added.features.frame, earlier.features.frame}) : KeptMatches::iterator();
+  // The pairs are matched on `threads` threads (those Rematch keeps are
+  // taken as they are), then merged in neighbour order: the tracks are the
+  // same for any number of threads.
+  std::vector<std::vector<FeatureMatch>> matches(neighbours.size());
+  std::vector<size_t> to_match;
+  for (size_t n = 0; n < neighbours.size(); ++n) {
+    const FrameId earlier = keyframes_[static_cast<size_t>(neighbours[n])].features.frame;
+    const auto reused = kept ? kept->find({added.features.frame, earlier}) : KeptMatches::iterator();
     if (kept && reused != kept->end()) {
-      matches = std::move(reused->second);
+      matches[n] = std::move(reused->second);
       ++stats.pairs_reused;
     } else {
-      matches = MatchGuided(added, earlier, camera_, options_.matcher).matches;
+      to_match.push_back(n);
     }
-    stats.matches += static_cast<int>(matches.size());
-    MergeMatches(first, k, matches, &stats);
-    pair_matches_.back().emplace_back(k, std::move(matches));
+  }
+  ParallelFor(
+      to_match.size(), threads,
+      [&](size_t m) {
+        const size_t n = to_match[m];
+        matches[n] = MatchGuided(added, keyframes_[static_cast<size_t>(neighbours[n])], camera_, options_.matcher).matches;
+      },
+      1);
+  for (size_t n = 0; n < neighbours.size(); ++n) {
+    const int k = neighbours[n];
+    stats.matched_with.push_back(keyframes_[static_cast<size_t>(k)].features.frame);
+    stats.matches += static_cast<int>(matches[n].size());
+    MergeMatches(first, k, matches[n], &stats);
+    pair_matches_.back().emplace_back(k, std::move(matches[n]));
   }
   return stats;
 }
@@ -253,7 +267,7 @@ double FeatureMap::PairShiftPx(const PosedKeyframe& a, const PosedKeyframe& b, c
   return shift;
 }
 
-Result<int> FeatureMap::Rematch(const PoseMap& cam_from_world, const CameraModel& camera) {
+Result<int> FeatureMap::Rematch(const PoseMap& cam_from_world, const CameraModel& camera, int threads) {
   if (Status s = camera.Check(); !s) return s.error();
   FeatureMap next(camera, options_);
   // The pairs whose relative geometry the final poses and camera leave in
@@ -282,7 +296,7 @@ Result<int> FeatureMap::Rematch(const PoseMap& cam_from_world, const CameraModel
     auto posed = MakePosedKeyframe(std::move(keyframe.features), pose->second, keyframe.depth, camera_);
     if (!posed) return posed.error();
     keyframes_.push_back(std::move(*posed));
-    const KeyframeMatchStats stats = MatchLastKeyframe(&kept);
+    const KeyframeMatchStats stats = MatchLastKeyframe(&kept, threads);
     rematched += static_cast<int>(stats.matched_with.size()) > stats.pairs_reused;
   }
   return rematched;

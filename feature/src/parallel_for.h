@@ -1,7 +1,8 @@
 #pragma once
 // body(i) for every i in [0, n) on `threads` threads (the caller's among
-// them), items handed out in blocks from a shared counter. Each item writes
-// only its own output, so the result is the same for any thread count.
+// them), items handed out in blocks of `block` from a shared counter. Each
+// item writes only its own output, so the result is the same for any
+// thread count.
 #include <algorithm>
 #include <atomic>
 #include <cstddef>
@@ -11,8 +12,8 @@
 namespace tagsfm {
 
 template <typename Body>
-void ParallelFor(size_t n, int threads, Body&& body) {
-  constexpr size_t kBlock = 16;
+void ParallelFor(size_t n, int threads, Body&& body, size_t block = 16) {
+  const size_t kBlock = std::max<size_t>(1, block);
   if (threads <= 1 || n <= kBlock) {
     for (size_t i = 0; i < n; ++i) body(i);
     return;

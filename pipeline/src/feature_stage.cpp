@@ -56,8 +56,10 @@ struct FeatureStage::State {
   std::thread worker;
 
   void Work();
-  void Process(const Keyframe& keyframe, const cv::Mat& gray, const cv::Mat& colour, FeatureMap* into);
-  void Add(const Keyframe& keyframe, KeyframeFeatures features, FeatureMap* into);
+  // `threads` match the keyframe with its neighbours: one on the live
+  // worker (the other core is capture's and the tags'), match_threads else.
+  void Process(const Keyframe& keyframe, const cv::Mat& gray, const cv::Mat& colour, FeatureMap* into, int threads);
+  void Add(const Keyframe& keyframe, KeyframeFeatures features, FeatureMap* into, int threads);
   void UpdateCloud();
   void Warn(FrameId frame, const std::string& what);
   void StopWorker();
@@ -69,19 +71,20 @@ void FeatureStage::State::Warn(FrameId frame, const std::string& what) {
   failed.insert(frame);
 }
 
-void FeatureStage::State::Add(const Keyframe& keyframe, KeyframeFeatures features, FeatureMap* into) {
-  auto added = into->AddKeyframe(std::move(features), keyframe.cam_from_world, keyframe.depth);
+void FeatureStage::State::Add(const Keyframe& keyframe, KeyframeFeatures features, FeatureMap* into, int threads) {
+  auto added = into->AddKeyframe(std::move(features), keyframe.cam_from_world, keyframe.depth, threads);
   if (!added) Warn(keyframe.frame, added.error().message);
 }
 
-void FeatureStage::State::Process(const Keyframe& keyframe, const cv::Mat& gray, const cv::Mat& colour, FeatureMap* into) {
+void FeatureStage::State::Process(const Keyframe& keyframe, const cv::Mat& gray, const cv::Mat& colour, FeatureMap* into,
+                                  int threads) {
   const auto t0 = Clock::now();
   auto features = ExtractFeatures(gray, colour, keyframe.tags, extractor);
   if (!features) {
     Warn(keyframe.frame, features.error().message);
     return;
   }
-  Add(keyframe, std::move(*features), into);
+  Add(keyframe, std::move(*features), into, threads);
   {
     std::lock_guard<std::mutex> lock(mutex);
     keyframe_ms.push_back(SecondsSince(t0) * 1000.0);
@@ -128,7 +131,7 @@ void FeatureStage::State::Work() {
       job = std::move(queue.front());
       queue.pop_front();
     }
-    Process(job.keyframe, job.gray, job.colour, map.get());
+    Process(job.keyframe, job.gray, job.colour, map.get(), 1);
   }
 }
 
@@ -178,7 +181,7 @@ void FeatureStage::AddKeyframe(const Frame* frame, const DetectionSet& tags, con
   s.keyframes.push_back(keyframe);
   if (!frame) return;  // Complete reads it again
   if (!s.worker.joinable()) {
-    s.Process(keyframe, frame->gray, frame->image, s.map.get());
+    s.Process(keyframe, frame->gray, frame->image, s.map.get(), o.match_threads);
     return;
   }
   // Copies: the capture side may reuse its buffers.
@@ -212,7 +215,7 @@ void FeatureStage::Complete(const FeatureFrameLoader& reload) {
   for (const Keyframe& keyframe : s.keyframes) {
     if (failed.count(keyframe.frame)) continue;
     if (const auto it = done.find(keyframe.frame); it != done.end()) {
-      s.Add(keyframe, *it->second, rebuilt.get());
+      s.Add(keyframe, *it->second, rebuilt.get(), s.options.match_threads);
       continue;
     }
     auto frame = reload ? reload(keyframe.frame) : Result<Frame>(MakeError("no way to read it again"));
@@ -220,7 +223,7 @@ void FeatureStage::Complete(const FeatureFrameLoader& reload) {
       s.Warn(keyframe.frame, frame.error().message);
       continue;
     }
-    s.Process(keyframe, frame->gray, frame->image, rebuilt.get());
+    s.Process(keyframe, frame->gray, frame->image, rebuilt.get(), s.options.match_threads);
   }
   s.map = std::move(rebuilt);
 }
@@ -228,7 +231,7 @@ void FeatureStage::Complete(const FeatureFrameLoader& reload) {
 std::vector<FeaturePoint> FeatureStage::Triangulate(const PoseMap& cam_from_world, const CameraModel& camera,
                                                     FeatureTriangulationStats* stats) {
   if (state_->options.rematch_final_poses) {
-    auto moved = state_->map->Rematch(cam_from_world, camera);
+    auto moved = state_->map->Rematch(cam_from_world, camera, state_->options.match_threads);
     std::lock_guard<std::mutex> lock(state_->mutex);
     if (moved) {
       state_->rematched = *moved;

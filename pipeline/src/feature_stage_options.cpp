@@ -33,6 +33,7 @@ Status FeatureStageOptions::Check() const {
   if (!(live_cloud_interval_s >= 0 && live_cloud_interval_s < 1e6)) return MakeError("features.live_cloud_interval_s must be >= 0");
   if (live_cloud_max_points < 0) return MakeError("features.live_cloud_max_points must be >= 0");
   if (finish_threads < 1 || finish_threads > 64) return MakeError("features.finish_threads must be in [1, 64]");
+  if (match_threads < 1 || match_threads > 64) return MakeError("features.match_threads must be in [1, 64]");
   return Status::Ok();
 }
 

@@ -149,6 +149,7 @@ void ReadFeatures(YamlFields f, FeatureStageOptions* o) {
   f.Read("live_cloud_interval_s", &o->live_cloud_interval_s);
   f.Read("live_cloud_max_points", &o->live_cloud_max_points);
   f.Read("finish_threads", &o->finish_threads);
+  f.Read("match_threads", &o->match_threads);
   f.Read("rematch_final_poses", &o->rematch_final_poses);
   f.Done();
 }

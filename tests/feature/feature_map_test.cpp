@@ -43,6 +43,17 @@ TEST(FeatureMap, OptionsAndInputAreChecked) {
   EXPECT_EQ(map->keyframes(), 1);
 }
 
+// Tracks as a set of (frame, feature) views per track, for comparing maps.
+std::set<std::vector<std::pair<FrameId, int>>> TrackSet(const FeatureMap& map) {
+  std::set<std::vector<std::pair<FrameId, int>>> set;
+  for (const FeatureTrack& t : map.Tracks()) {
+    std::vector<std::pair<FrameId, int>> views;
+    for (const TrackObservation& o : t.observations) views.emplace_back(o.frame, o.feature);
+    set.insert(views);
+  }
+  return set;
+}
+
 struct WalkResult {
   int points = 0;
   double within_2mm = 0, within_5mm = 0;
@@ -66,6 +77,8 @@ WalkResult RunWalk(const synth::SynthOptions& synth_options, bool shuffled) {
   const CameraModel camera = *reader->info().camera;
   auto map = FeatureMap::Create(camera, {});
   EXPECT_TRUE(map.has_value());
+  // The same keyframes matched three pairs at a time.
+  auto threaded_map = FeatureMap::Create(camera, {});
   std::vector<size_t> order(reader->entries().size());
   for (size_t i = 0; i < order.size(); ++i) order[i] = i;
   // A photo set: no order to rely on.
@@ -86,7 +99,9 @@ WalkResult RunWalk(const synth::SynthOptions& synth_options, bool shuffled) {
     std::nth_element(depths.begin(), depths.begin() + static_cast<long>(depths.size() / 2), depths.end());
     auto features = ExtractFeatures(frame->gray, cv::Mat(), DetectionSet{frame->index, {}}, {});
     EXPECT_TRUE(features.has_value());
-    auto stats = map->AddKeyframe(std::move(*features), pose, DepthRange::Around(depths[depths.size() / 2], 2.0));
+    const DepthRange depth = DepthRange::Around(depths[depths.size() / 2], 2.0);
+    EXPECT_TRUE(threaded_map->AddKeyframe(*features, pose, depth, 3).has_value());
+    auto stats = map->AddKeyframe(std::move(*features), pose, depth);
     EXPECT_TRUE(stats.has_value());
     r.conflicts += stats->conflicts;
   }
@@ -97,6 +112,7 @@ WalkResult RunWalk(const synth::SynthOptions& synth_options, bool shuffled) {
     EXPECT_EQ(std::set<FrameId>(frames.begin(), frames.end()).size(), frames.size()) << "two features of one keyframe in track " << t.id;
     r.tracks_with_gap += frames.back() - frames.front() + 1 > static_cast<FrameId>(frames.size());
   }
+  EXPECT_TRUE(TrackSet(*threaded_map) == TrackSet(*map)) << "threads changed the tracks";
   const std::vector<FeaturePoint> points = map->Triangulate(poses, camera);
   // Threads share out the tracks, each independent: bit for bit the same points.
   const std::vector<FeaturePoint> threaded = map->Triangulate(poses, camera, 3);
@@ -118,16 +134,6 @@ WalkResult RunWalk(const synth::SynthOptions& synth_options, bool shuffled) {
   return r;
 }
 
-// Tracks as a set of (frame, feature) views per track, for comparing maps.
-std::set<std::vector<std::pair<FrameId, int>>> TrackSet(const FeatureMap& map) {
-  std::set<std::vector<std::pair<FrameId, int>>> set;
-  for (const FeatureTrack& t : map.Tracks()) {
-    std::vector<std::pair<FrameId, int>> views;
-    for (const TrackObservation& o : t.observations) views.emplace_back(o.frame, o.feature);
-    set.insert(views);
-  }
-  return set;
-}
 
 // Live poses a little wrong (3 to 5 degrees: 26-44 px at f = 500, beyond the
 // 2 px epipolar band) lose matches; matched again from the right poses

@@ -81,9 +81,11 @@ class FeatureMap {
   static Result<FeatureMap> Create(const CameraModel& camera, const FeatureMapOptions& options);
 
   // Adds a keyframe seen from `cam_from_world` with its scene in `depth` and
-  // matches it with the earlier ones that overlap it. An error (and no
+  // matches it with the earlier ones that overlap it, one pair per thread
+  // (the tracks are the same for any number of `threads`). An error (and no
   // change) for a frame already added or bad features / depth range.
-  Result<KeyframeMatchStats> AddKeyframe(KeyframeFeatures features, const Rigid3d& cam_from_world, const DepthRange& depth);
+  Result<KeyframeMatchStats> AddKeyframe(KeyframeFeatures features, const Rigid3d& cam_from_world, const DepthRange& depth,
+                                         int threads = 1);
 
   // Builds the tracks again, in the order the keyframes were added, from
   // `cam_from_world` (the final poses) and `camera` (refined intrinsics): the
@@ -92,7 +94,7 @@ class FeatureMap {
   // geometry moved less than rematch_shift_px keep their matches; the others
   // are matched again. Keyframes without a pose here are left out. Returns
   // how many keyframes were matched again with at least one earlier one.
-  Result<int> Rematch(const PoseMap& cam_from_world, const CameraModel& camera);
+  Result<int> Rematch(const PoseMap& cam_from_world, const CameraModel& camera, int threads = 1);
 
   // Tracks of two or more views, each view's feature index and pixel.
   std::vector<FeatureTrack> Tracks() const;
@@ -114,8 +116,8 @@ class FeatureMap {
   // Matches earlier keyframes' matches that Rematch keeps, by (new, earlier) frame.
   using KeptMatches = std::map<std::pair<FrameId, FrameId>, std::vector<FeatureMatch>>;
   // Matches the last keyframe added with the earlier ones that overlap it
-  // (taking a pair's matches from `kept` when there).
-  KeyframeMatchStats MatchLastKeyframe(KeptMatches* kept = nullptr);
+  // (taking a pair's matches from `kept` when there), on `threads` threads.
+  KeyframeMatchStats MatchLastKeyframe(KeptMatches* kept, int threads);
   void MergeMatches(int first_new, int earlier, const std::vector<FeatureMatch>& matches, KeyframeMatchStats* stats);
   // Pixels by which the final poses and camera (final_map's) move a's view of
   // its scene (its sample rays at its typical depth) in b's image across the

@@ -51,6 +51,11 @@ struct FeatureStageOptions {
   // Threads of the final triangulation and refinement (at Finish, when
   // capture is over; the points are the same for any number).
   int finish_threads = 2;
+  // Threads matching a keyframe with its earlier neighbours, a pair each,
+  // in a plain replay and at Finish; live, the worker matches on one, leaving
+  // the other core to capture and the tags. The tracks are the same for any
+  // number.
+  int match_threads = 2;
   // At Finish, match the keyframes again from the final poses and camera
   // before triangulating (FeatureMap::Rematch): live poses, and a lens not
   // yet refined, push true matches out of the epipolar band.
