@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <memory>
 
 #include <ceres/ceres.h>
 
@@ -312,6 +313,24 @@ void ComputeCovariance(ceres::Problem* problem, const std::vector<FrameState*>& 
   out->covariance = std::move(result);
 }
 
+// The feature points eliminated first and alone: every eliminated block is
+// then a 3-vector seen only by 2-row residuals on a 6-dof pose, which Ceres'
+// Schur eliminator has compiled for (its automatic ordering also eliminated
+// the learned tags, and fell back to dynamic block sizes).
+std::shared_ptr<ceres::ParameterBlockOrdering> PointsFirstOrdering(const ceres::Problem& problem,
+                                                                   std::vector<AdjustedPoint>& points) {
+  auto ordering = std::make_shared<ceres::ParameterBlockOrdering>();
+  for (AdjustedPoint& point : points) {
+    if (problem.HasParameterBlock(point.position.data())) ordering->AddElementToGroup(point.position.data(), 0);
+  }
+  std::vector<double*> blocks;
+  problem.GetParameterBlocks(&blocks);
+  for (double* block : blocks) {
+    if (!ordering->IsMember(block)) ordering->AddElementToGroup(block, 1);
+  }
+  return ordering;
+}
+
 }  // namespace
 
 GlobalAdjustmentSummary AdjustGlobally(const std::vector<FrameState*>& frames, std::map<TagId, MapTag>* tags,
@@ -374,6 +393,7 @@ GlobalAdjustmentSummary AdjustGlobally(const std::vector<FrameState*>& frames, s
   out.initial_rms_px = RmsOf(&problem);
   ceres::Solver::Options solver;
   solver.linear_solver_type = ceres::SPARSE_SCHUR;
+  if (points && points->points) solver.linear_solver_ordering = PointsFirstOrdering(problem, *points->points);
   solver.max_num_iterations = options.global_iterations;
   solver.num_threads = options.global_threads;
   solver.function_tolerance = 1e-12;
