@@ -316,18 +316,30 @@ void ComputeCovariance(ceres::Problem* problem, const std::vector<FrameState*>& 
 // The feature points eliminated first and alone: every eliminated block is
 // then a 3-vector seen only by 2-row residuals on a 6-dof pose, which Ceres'
 // Schur eliminator has compiled for (its automatic ordering also eliminated
-// the learned tags, and fell back to dynamic block sizes).
+// the learned tags, and fell back to dynamic block sizes). Ceres orders a
+// group's blocks by address, and heap addresses vary from run to run with
+// the threads' allocations, so every other block gets a group of its own,
+// in frame order, tag id order, then the camera: the same arithmetic in
+// every run. Their reduced system is small and dense, so the fixed order
+// costs no fill.
 std::shared_ptr<ceres::ParameterBlockOrdering> PointsFirstOrdering(const ceres::Problem& problem,
-                                                                   std::vector<AdjustedPoint>& points) {
+                                                                   std::vector<AdjustedPoint>& points,
+                                                                   const std::vector<FrameState*>& frames,
+                                                                   std::map<TagId, MapTag>& tags, double* intrinsics) {
   auto ordering = std::make_shared<ceres::ParameterBlockOrdering>();
+  // The points lie in one vector: their addresses follow their order.
   for (AdjustedPoint& point : points) {
     if (problem.HasParameterBlock(point.position.data())) ordering->AddElementToGroup(point.position.data(), 0);
   }
-  std::vector<double*> blocks;
-  problem.GetParameterBlocks(&blocks);
-  for (double* block : blocks) {
-    if (!ordering->IsMember(block)) ordering->AddElementToGroup(block, 1);
-  }
+  int group = 1;
+  auto add = [&](double* block) {
+    if (problem.HasParameterBlock(block) && !ordering->IsMember(block)) ordering->AddElementToGroup(block, group++);
+  };
+  for (FrameState* frame : frames) add(frame->cam_from_world.data);
+  for (auto& [id, tag] : tags) add(tag.world_from_tag.data);
+  add(intrinsics);
+  // A block of another kind would be left out: Ceres then orders them all.
+  if (ordering->NumElements() != problem.NumParameterBlocks()) return nullptr;
   return ordering;
 }
 
@@ -393,7 +405,9 @@ GlobalAdjustmentSummary AdjustGlobally(const std::vector<FrameState*>& frames, s
   out.initial_rms_px = RmsOf(&problem);
   ceres::Solver::Options solver;
   solver.linear_solver_type = ceres::SPARSE_SCHUR;
-  if (points && points->points) solver.linear_solver_ordering = PointsFirstOrdering(problem, *points->points);
+  if (points && points->points) {
+    solver.linear_solver_ordering = PointsFirstOrdering(problem, *points->points, frames, *tags, intrinsics);
+  }
   solver.max_num_iterations = options.global_iterations;
   solver.num_threads = options.global_threads;
   solver.function_tolerance = 1e-12;
