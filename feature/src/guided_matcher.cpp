@@ -69,25 +69,37 @@ class FeatureGrid {
 
   const Eigen::Vector2d& lo() const { return lo_; }
   const Eigen::Vector2d& hi() const { return hi_; }
-  int cells() const { return cols_ * rows_; }
 
-  // Calls visit(cell) for each cell overlapping the box [c - h, c + h].
+  // Calls visit(item, slot) for the items of every cell that the band of
+  // half-width w round the segment a-b touches: a superset of the items
+  // within w of the segment, found row of cells by row. A row's cells are
+  // consecutive slots, so each row is one run through memory. Slots number
+  // the items cell by cell (row-major).
   template <typename Visit>
-  void ForCellsInBox(const Eigen::Vector2d& c, double h, Visit&& visit) const {
-    const int x0 = std::max(0, static_cast<int>(std::floor((c.x() - h - lo_.x()) / cell_)));
-    const int x1 = std::min(cols_ - 1, static_cast<int>(std::floor((c.x() + h - lo_.x()) / cell_)));
-    const int y0 = std::max(0, static_cast<int>(std::floor((c.y() - h - lo_.y()) / cell_)));
-    const int y1 = std::min(rows_ - 1, static_cast<int>(std::floor((c.y() + h - lo_.y()) / cell_)));
-    for (int y = y0; y <= y1; ++y) {
-      for (int x = x0; x <= x1; ++x) visit(y * cols_ + x);
+  void ForItemsNearSegment(const Eigen::Vector2d& a, const Eigen::Vector2d& b, double w, Visit&& visit) const {
+    const Eigen::Vector2d d = b - a;
+    const int first_row = std::max(0, static_cast<int>(std::floor((std::min(a.y(), b.y()) - w - lo_.y()) / cell_)));
+    const int last_row = std::min(rows_ - 1, static_cast<int>(std::floor((std::max(a.y(), b.y()) + w - lo_.y()) / cell_)));
+    for (int row = first_row; row <= last_row; ++row) {
+      // The part of the segment within w (in y) of this row: a point of the
+      // row within w of the segment lies within w (in x) of that part.
+      const double y0 = lo_.y() + row * cell_ - w, y1 = lo_.y() + (row + 1) * cell_ + w;
+      double t0 = 0, t1 = 1;
+      if (d.y() != 0) {
+        const double ta = (y0 - a.y()) / d.y(), tb = (y1 - a.y()) / d.y();
+        t0 = std::max(t0, std::min(ta, tb));
+        t1 = std::min(t1, std::max(ta, tb));
+        if (t0 > t1) continue;
+      } else if (a.y() < y0 || a.y() > y1) {
+        continue;
+      }
+      const double xa = a.x() + t0 * d.x(), xb = a.x() + t1 * d.x();
+      const int c0 = std::max(0, static_cast<int>(std::floor((std::min(xa, xb) - w - lo_.x()) / cell_)));
+      const int c1 = std::min(cols_ - 1, static_cast<int>(std::floor((std::max(xa, xb) + w - lo_.x()) / cell_)));
+      if (c0 > c1) continue;
+      const int end = start_[static_cast<size_t>(row * cols_ + c1 + 1)];
+      for (int k = start_[static_cast<size_t>(row * cols_ + c0)]; k < end; ++k) visit(items_[static_cast<size_t>(k)], k);
     }
-  }
-  // Calls visit(item, slot) for the items in `cell`; slots number the
-  // items cell by cell (row-major), so neighbouring cells' items have
-  // neighbouring slots.
-  template <typename Visit>
-  void ForItems(int cell, Visit&& visit) const {
-    for (int k = start_[static_cast<size_t>(cell)]; k < start_[static_cast<size_t>(cell) + 1]; ++k) visit(items_[static_cast<size_t>(k)], k);
   }
   const std::vector<int>& ItemsBySlot() const { return items_; }
 
@@ -204,7 +216,6 @@ GuidedMatches MatchGuided(const PosedKeyframe& first, const PosedKeyframe& secon
   const std::vector<int> first_order = FeatureGrid(first.undistorted, cell).ItemsBySlot();
 
   std::vector<BestTwo> forward(static_cast<size_t>(n1)), backward(static_cast<size_t>(n2));
-  std::vector<int> stamp(static_cast<size_t>(grid.cells()), -1);
   for (const int i : first_order) {
     const Eigen::Vector2d& u = first.undistorted[static_cast<size_t>(i)];
     const Eigen::Vector3d rm = r * Eigen::Vector3d((u.x() - camera.cx) / camera.fx, (u.y() - camera.cy) / camera.fy, 1.0);
@@ -221,26 +232,17 @@ GuidedMatches MatchGuided(const PosedKeyframe& first, const PosedKeyframe& secon
     };
     Eigen::Vector2d a = project(d0), b = project(d1);
     if (!ClipSegment(lo, hi, &a, &b)) continue;
-    const double length = (b - a).norm();
-    const int steps = static_cast<int>(std::ceil(length / (0.5 * cell)));
     const Segment segment(a, b);
     const double band2 = band * band;
     const float* desc1 = first.features.descriptors.ptr<float>(i);
     BestTwo& f = forward[static_cast<size_t>(i)];
-    for (int s = 0; s <= steps; ++s) {
-      const Eigen::Vector2d c = steps > 0 ? Eigen::Vector2d(a + (b - a) * (double(s) / steps)) : a;
-      grid.ForCellsInBox(c, band + 0.25 * cell, [&](int cell_index) {
-        if (stamp[static_cast<size_t>(cell_index)] == i) return;
-        stamp[static_cast<size_t>(cell_index)] = i;
-        grid.ForItems(cell_index, [&](int j, int slot) {
-          if (segment.SquaredDistance(slot_pixels[static_cast<size_t>(slot)]) > band2) return;
-          ++out.candidates;
-          const float d = DescriptorDistance(desc1, slot_descriptors.ptr<float>(slot));
-          f.Offer(j, d);
-          backward[static_cast<size_t>(j)].Offer(i, d);
-        });
-      });
-    }
+    grid.ForItemsNearSegment(a, b, band, [&](int j, int slot) {
+      if (segment.SquaredDistance(slot_pixels[static_cast<size_t>(slot)]) > band2) return;
+      ++out.candidates;
+      const float d = DescriptorDistance(desc1, slot_descriptors.ptr<float>(slot));
+      f.Offer(j, d);
+      backward[static_cast<size_t>(j)].Offer(i, d);
+    });
   }
   for (int i = 0; i < n1; ++i) {
     const BestTwo& f = forward[static_cast<size_t>(i)];
