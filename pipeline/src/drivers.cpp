@@ -39,6 +39,9 @@ FrameLoader LazyRecordingFrameLoader(std::filesystem::path dir) {
   };
   auto opened = std::make_shared<std::optional<Opened>>();
   return [opened, dir](FrameId frame) -> Result<Frame> {
+    // Opened again for a frame recorded after the last opening (a keyframe
+    // the bootstrap held back is read while the recording grows).
+    if (opened->has_value() && (*opened)->reader && !(*opened)->index.count(frame)) opened->reset();
     if (!opened->has_value()) {
       auto reader = RecordingReader::Open(dir);
       std::map<FrameId, size_t> index = reader ? EntryIndex(*reader) : std::map<FrameId, size_t>{};

@@ -40,6 +40,9 @@ struct Pipeline::State {
 
   Status StartReconstruction(const CameraModel& known_camera, bool refine_intrinsics);
   void Reconstruct(const DetectionSet& detections, std::int64_t timestamp_ns, const Frame* frame, FrameOutput* out);
+  // A frame the bootstrap held back, now a keyframe: its image read again
+  // when `read_now` (else, or when that fails, at Finish).
+  void AddEarlierKeyframe(const EarlierKeyframe& keyframe, bool read_now);
   void ShowCloud(LiveStatus* status) const;
   Status Calibrate();
 };
@@ -131,14 +134,27 @@ void Pipeline::State::Reconstruct(const DetectionSet& detections, std::int64_t t
   const auto t0 = std::chrono::steady_clock::now();
   const FrameReport report = recon->AddFrame(detections);
   stats.frame_latency_ms.push_back(MsSince(t0));
-  if (features && features->SelectKeyframe(report)) {
-    features->AddKeyframe(frame, detections, report, recon->MappedTargetCorners());
+  if (features) {
+    for (const EarlierKeyframe& earlier : report.earlier_keyframes) AddEarlierKeyframe(earlier, frame != nullptr);
+    if (features->SelectKeyframe(report)) features->AddKeyframe(frame, detections, report, recon->MappedTargetCorners());
   }
   if (feedback) {
     out->status = feedback->Update(detections, report, timestamp_ns);
     ShowCloud(&*out->status);
   }
   out->report = report;
+}
+
+void Pipeline::State::AddEarlierKeyframe(const EarlierKeyframe& keyframe, bool read_now) {
+  FrameReport report;
+  report.frame = keyframe.frame;
+  report.registered = true;
+  report.keyframe = true;
+  report.cam_from_world = keyframe.cam_from_world;
+  std::optional<Result<Frame>> image;
+  if (read_now && input.reload) image = input.reload(keyframe.frame);
+  const Frame* read = image && image->has_value() ? &**image : nullptr;
+  features->AddKeyframe(read, keyframe.tags, report, recon->MappedTargetCorners());
 }
 
 void Pipeline::State::ShowCloud(LiveStatus* status) const {

@@ -112,6 +112,7 @@ std::map<TagId, QuadCorners> Reconstructor::PredictTagCorners(FrameId frame,
 
 FrameReport Reconstructor::AddFrame(const DetectionSet& detections) {
   FrameState& frame = MakeFrameState(detections);
+  const size_t keyframes_before = keyframes_.size();
   FrameReport report;
   report.frame = frame.frame;
   report.tags_seen = static_cast<int>(frame.tags.size());
@@ -130,6 +131,20 @@ FrameReport Reconstructor::AddFrame(const DetectionSet& detections) {
   report.rms_px = frame.pnp_rms_px;
   report.keyframe = frame.keyframe;
   report.mapped_tags = tags_.size();
+  for (size_t k = keyframes_before; k < keyframes_.size(); ++k) {
+    const FrameState* earlier = keyframes_[k];
+    if (earlier == &frame) continue;
+    EarlierKeyframe e{earlier->frame, earlier->cam_from_world.ToRigid(), DetectionSet{earlier->frame, {}}};
+    for (const TagObservation& obs : earlier->tags) {
+      TagDetection tag;
+      tag.id = obs.id;
+      tag.corners = obs.pixels;
+      e.tags.tags.push_back(tag);
+    }
+    report.earlier_keyframes.push_back(std::move(e));
+  }
+  std::sort(report.earlier_keyframes.begin(), report.earlier_keyframes.end(),
+            [](const EarlierKeyframe& a, const EarlierKeyframe& b) { return a.frame < b.frame; });
   return report;
 }
 

@@ -247,6 +247,40 @@ TEST(Reconstructor, AWalkBackOverCoveredGroundAddsNoKeyframe) {
   }
 }
 
+TEST(Reconstructor, EveryKeyframeIsReportedOnceAlsoTheViewsTheBootstrapHeldBack) {
+  // Without a map the first views wait for a second one to start from; the
+  // ones that then become keyframes come in that frame's report, so that
+  // the feature stage sees every keyframe (the one keyframe rule).
+  synth::SyntheticSceneOptions options;
+  options.frames = 20;
+  options.noise_px = 0.1;
+  const synth::SyntheticScene scene = synth::MakeSyntheticBoxScene(options);
+  std::vector<FrameReport> reports;
+  const ReconstructionResult result = RunScene(scene, BoxTargets(options), std::nullopt, &reports);
+  std::map<FrameId, int> reported;
+  int earlier = 0;
+  for (const FrameReport& report : reports) {
+    if (report.keyframe) ++reported[report.frame];
+    for (const EarlierKeyframe& k : report.earlier_keyframes) {
+      ++reported[k.frame];
+      ++earlier;
+      EXPECT_LT(k.frame, report.frame);
+      const DetectionSet& seen = scene.detections.at(static_cast<size_t>(k.frame));
+      ASSERT_EQ(k.tags.tags.size(), seen.tags.size()) << "frame " << k.frame;
+      for (size_t t = 0; t < seen.tags.size(); ++t) {
+        EXPECT_EQ(k.tags.tags[t].id, seen.tags[t].id);
+        EXPECT_EQ(k.tags.tags[t].corners, seen.tags[t].corners);
+      }
+    }
+  }
+  EXPECT_GE(earlier, 1) << "the bootstrap held no view back: the test shows nothing";
+  std::map<FrameId, int> keyframes;
+  for (const FrameState& f : result.frames) {
+    if (f.keyframe) keyframes[f.frame] = 1;
+  }
+  EXPECT_EQ(reported, keyframes);
+}
+
 TEST(Reconstructor, FrameWithoutTagsIsUnregisteredWithReason) {
   synth::SyntheticSceneOptions options;
   options.frames = 3;

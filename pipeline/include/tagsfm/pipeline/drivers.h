@@ -18,7 +18,8 @@ using OutputCallback = std::function<void(const FrameOutput&)>;
 
 // Frames of a recording by id, read again on demand.
 FrameLoader RecordingFrameLoader(const RecordingReader& reader);
-// The same for a recording still being written: opened at the first call.
+// The same for a recording still being written: opened at the first call,
+// and again for a frame recorded since.
 FrameLoader LazyRecordingFrameLoader(std::filesystem::path dir);
 
 struct ReplayLoopOptions {

@@ -57,6 +57,14 @@ struct ReconstructorOptions {
   Status Check() const;
 };
 
+// A frame registered, as a keyframe, while a later one was added: the views
+// the bootstrap held back until the map could start.
+struct EarlierKeyframe {
+  FrameId frame = 0;
+  Rigid3d cam_from_world;
+  DetectionSet tags;  // its tags' ids and corners, as detected
+};
+
 struct FrameReport {
   FrameId frame = 0;
   bool registered = false;
@@ -72,6 +80,9 @@ struct FrameReport {
   std::vector<TagId> remapped_tags;  // mapped tags this frame put elsewhere (remap_after_outlier_frames)
   bool keyframe = false;
   size_t mapped_tags = 0;
+  // Earlier frames that became keyframes while this one was added, in frame
+  // order (the one keyframe rule: the feature stage takes them too).
+  std::vector<EarlierKeyframe> earlier_keyframes;
 };
 
 class Reconstructor {
