@@ -1,6 +1,7 @@
 #include "tagsfm/recon/bundle_adjuster.h"
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <memory>
@@ -343,14 +344,10 @@ std::shared_ptr<ceres::ParameterBlockOrdering> PointsFirstOrdering(const ceres::
   return ordering;
 }
 
-}  // namespace
-
-GlobalAdjustmentSummary AdjustGlobally(const std::vector<FrameState*>& frames, std::map<TagId, MapTag>* tags,
-                                       double fx, double fy, const BundleAdjusterOptions& options,
-                                       CameraModel* refine_camera, const PointTerms* points) {
-  GlobalAdjustmentSummary out;
-  ceres::Problem problem(ProblemOptions());
-  double intrinsics[6] = {fx, fy, 0, 0, 0, 0};
+// The adjusted intrinsics' block: fx, fy, cx, cy, k1, k2 (cx.. zero when
+// the intrinsics stay fixed: the block is then not in the problem).
+std::array<double, 6> IntrinsicsBlock(double fx, double fy, const CameraModel* refine_camera) {
+  std::array<double, 6> intrinsics{fx, fy, 0, 0, 0, 0};
   if (refine_camera) {
     const auto& d = refine_camera->distortion;
     intrinsics[2] = refine_camera->cx;
@@ -358,6 +355,15 @@ GlobalAdjustmentSummary AdjustGlobally(const std::vector<FrameState*>& frames, s
     intrinsics[4] = d.size() > 0 ? d[0] : 0.0;
     intrinsics[5] = d.size() > 1 ? d[1] : 0.0;
   }
+  return intrinsics;
+}
+
+// The registered frames' tag observations as residuals, with each frame's
+// pose and each learned tag's pose as blocks (the anchor held constant);
+// through `intrinsics` when they are adjusted (else null). Returns the
+// free parameters added.
+int AddTargetResiduals(ceres::Problem* problem, const std::vector<FrameState*>& frames, std::map<TagId, MapTag>* tags,
+                       double fx, double fy, double huber_px, double* intrinsics) {
   int free_parameters = 0;
   std::map<TagId, bool> added;
   for (FrameState* frame : frames) {
@@ -368,52 +374,77 @@ GlobalAdjustmentSummary AdjustGlobally(const std::vector<FrameState*>& frames, s
       if (it == tags->end() || obs.outlier) continue;
       MapTag& tag = it->second;
       if (!tag.known && !added[tag.id]) {
-        AddPoseBlock(&problem, &tag.world_from_tag);
+        AddPoseBlock(problem, &tag.world_from_tag);
         if (tag.anchor) {
-          problem.SetParameterBlockConstant(tag.world_from_tag.data);
+          problem->SetParameterBlockConstant(tag.world_from_tag.data);
         } else {
           free_parameters += 6;
         }
         added[tag.id] = true;
       }
       if (residuals == 0) {
-        AddPoseBlock(&problem, &frame->cam_from_world);
+        AddPoseBlock(problem, &frame->cam_from_world);
         free_parameters += 6;
       }
-      if (refine_camera) {
-        if (tag.known) {
-          for (int k = 0; k < 4; ++k) {
-            problem.AddResidualBlock(FixedPointPixelReprojectionError::Create(obs.pixels[k], tag.known_corners[k]),
-                                     SharedLoss(options.huber_px), frame->cam_from_world.data, intrinsics);
-          }
-        } else {
-          problem.AddResidualBlock(TagPixelReprojectionError::Create(obs.pixels, tag.size_m),
-                                   SharedLoss(2 * options.huber_px), frame->cam_from_world.data,
-                                   tag.world_from_tag.data, intrinsics);
-        }
-        ++residuals;
-      } else {
-        residuals += AddTagResiduals(&problem, frame, obs, &tag, fx, fy, options.huber_px);
+      if (!intrinsics) {
+        residuals += AddTagResiduals(problem, frame, obs, &tag, fx, fy, huber_px);
+        continue;
       }
+      if (tag.known) {
+        for (int k = 0; k < 4; ++k) {
+          problem->AddResidualBlock(FixedPointPixelReprojectionError::Create(obs.pixels[k], tag.known_corners[k]),
+                                    SharedLoss(huber_px), frame->cam_from_world.data, intrinsics);
+        }
+      } else {
+        problem->AddResidualBlock(TagPixelReprojectionError::Create(obs.pixels, tag.size_m), SharedLoss(2 * huber_px),
+                                  frame->cam_from_world.data, tag.world_from_tag.data, intrinsics);
+      }
+      ++residuals;
     }
   }
-  if (points && points->points) AddPointResiduals(&problem, frames, *points, fx, fy, refine_camera ? intrinsics : nullptr);
-  if (problem.NumResidualBlocks() == 0) {
-    out.covariance_note = "nothing to adjust";
-    return out;
-  }
-  out.initial_rms_px = RmsOf(&problem);
+  return free_parameters;
+}
+
+ceres::Solver::Options GlobalSolverOptions(const BundleAdjusterOptions& options) {
   ceres::Solver::Options solver;
   solver.linear_solver_type = ceres::SPARSE_SCHUR;
-  if (points && points->points) {
-    solver.linear_solver_ordering = PointsFirstOrdering(problem, *points->points, frames, *tags, intrinsics);
-  }
   solver.max_num_iterations = options.global_iterations;
   solver.num_threads = options.global_threads;
   solver.function_tolerance = 1e-12;
   solver.parameter_tolerance = 1e-12;
   solver.gradient_tolerance = 1e-14;
   solver.logging_type = ceres::SILENT;
+  return solver;
+}
+
+void StoreIntrinsics(const std::array<double, 6>& intrinsics, CameraModel* camera) {
+  camera->fx = intrinsics[0];
+  camera->fy = intrinsics[1];
+  camera->cx = intrinsics[2];
+  camera->cy = intrinsics[3];
+  camera->distortion = {intrinsics[4], intrinsics[5], 0.0, 0.0, 0.0};
+}
+
+}  // namespace
+
+GlobalAdjustmentSummary AdjustGlobally(const std::vector<FrameState*>& frames, std::map<TagId, MapTag>* tags,
+                                       double fx, double fy, const BundleAdjusterOptions& options,
+                                       CameraModel* refine_camera, const PointTerms* points) {
+  GlobalAdjustmentSummary out;
+  ceres::Problem problem(ProblemOptions());
+  std::array<double, 6> intrinsics = IntrinsicsBlock(fx, fy, refine_camera);
+  double* adjusted_intrinsics = refine_camera ? intrinsics.data() : nullptr;
+  int free_parameters = AddTargetResiduals(&problem, frames, tags, fx, fy, options.huber_px, adjusted_intrinsics);
+  if (points && points->points) AddPointResiduals(&problem, frames, *points, fx, fy, adjusted_intrinsics);
+  if (problem.NumResidualBlocks() == 0) {
+    out.covariance_note = "nothing to adjust";
+    return out;
+  }
+  out.initial_rms_px = RmsOf(&problem);
+  ceres::Solver::Options solver = GlobalSolverOptions(options);
+  if (points && points->points) {
+    solver.linear_solver_ordering = PointsFirstOrdering(problem, *points->points, frames, *tags, intrinsics.data());
+  }
   ceres::Solver::Summary summary;
   const auto t0 = std::chrono::steady_clock::now();
   ceres::Solve(solver, &problem, &summary);
@@ -423,11 +454,7 @@ GlobalAdjustmentSummary AdjustGlobally(const std::vector<FrameState*>& frames, s
   out.iterations = static_cast<int>(summary.iterations.size());
   out.final_rms_px = RmsOf(&problem);
   if (refine_camera && summary.IsSolutionUsable()) {
-    refine_camera->fx = intrinsics[0];
-    refine_camera->fy = intrinsics[1];
-    refine_camera->cx = intrinsics[2];
-    refine_camera->cy = intrinsics[3];
-    refine_camera->distortion = {intrinsics[4], intrinsics[5], 0.0, 0.0, 0.0};
+    StoreIntrinsics(intrinsics, refine_camera);
     free_parameters += 6;
   }
   if (options.compute_covariance) ComputeCovariance(&problem, frames, tags, free_parameters, &out);
