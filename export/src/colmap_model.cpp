@@ -1,7 +1,11 @@
 // colmap/{cameras,images,points3D}.txt: COLMAP's text model of the result,
 // the target corners and feature points as its 3D points.
 #include <iomanip>
+#include <map>
 #include <sstream>
+#include <string>
+#include <utility>
+#include <vector>
 
 #include "corner_stats.h"
 #include "tagsfm/core/file_util.h"
@@ -21,14 +25,12 @@ std::string FrameName(const RunStats& stats, FrameId frame) {
 // COLMAP's point id of a tag corner (ids start at 1).
 long long CornerPointId(TagId id, int corner) { return 4LL * id + corner + 1; }
 
-}  // namespace
+// COLMAP's 3D point id -> its views as (image id, index among the image's 2D points).
+using ColmapTracks = std::map<long long, std::vector<std::pair<int, int>>>;
 
-Status WriteColmapModel(const std::filesystem::path& dir, const ReconstructionResult& result, const RunStats& stats) {
-  std::error_code ec;
-  std::filesystem::create_directories(dir, ec);
-  if (ec) return MakeError(dir.string() + ": cannot create (" + ec.message() + ")");
-  // COLMAP puts pixel centres at .5, tagsfm at integers: shift by half a pixel.
-  const CameraModel& c = result.camera;
+// cameras.txt: one camera, the model that holds the lens's coefficients.
+// COLMAP puts pixel centres at .5, tagsfm at integers: shift by half a pixel.
+std::string CamerasText(const CameraModel& c) {
   std::ostringstream cameras;
   cameras << std::setprecision(17) << "# Camera list with one line of data per camera:\n"
           << "#   CAMERA_ID, MODEL, WIDTH, HEIGHT, PARAMS[]\n# Number of cameras: 1\n";
@@ -48,11 +50,16 @@ Status WriteColmapModel(const std::filesystem::path& dir, const ReconstructionRe
     for (size_t i = 0; i < 8; ++i) cameras << " " << coef(i);
     cameras << "\n";
   }
-  // Images: one per registered frame, its 2D points the mapped tag corners.
+  return cameras.str();
+}
+
+// images.txt: one image per registered frame, its 2D points the tag corners
+// (mapped ones with their point id) and then its feature observations;
+// `tracks` gets every 3D point's views.
+std::string ImagesText(const ReconstructionResult& result, const RunStats& stats, ColmapTracks* tracks) {
   std::ostringstream images;
   images << std::setprecision(17) << "# Image list with two lines of data per image:\n"
          << "#   IMAGE_ID, QW, QX, QY, QZ, TX, TY, TZ, CAMERA_ID, NAME\n#   POINTS2D[] as (X, Y, POINT3D_ID)\n";
-  std::map<long long, std::vector<std::pair<int, int>>> tracks;  // point id -> (image id, point2D index)
   // Feature observations by frame: (pixel, point id).
   std::map<FrameId, std::vector<std::pair<Eigen::Vector2d, long long>>> feature_views;
   for (size_t i = 0; i < result.feature_points.size(); ++i) {
@@ -76,7 +83,7 @@ Status WriteColmapModel(const std::filesystem::path& dir, const ReconstructionRe
         const long long point_id = mapped ? CornerPointId(obs.id, k) : -1;
         images << (first ? "" : " ") << obs.pixels[k].x() + 0.5 << " " << obs.pixels[k].y() + 0.5 << " " << point_id;
         first = false;
-        if (mapped) tracks[point_id].emplace_back(image_id, index);
+        if (mapped) (*tracks)[point_id].emplace_back(image_id, index);
         ++index;
       }
     }
@@ -84,11 +91,17 @@ Status WriteColmapModel(const std::filesystem::path& dir, const ReconstructionRe
       for (const auto& [pixel, point_id] : it->second) {
         images << (first ? "" : " ") << pixel.x() + 0.5 << " " << pixel.y() + 0.5 << " " << point_id;
         first = false;
-        tracks[point_id].emplace_back(image_id, index++);
+        (*tracks)[point_id].emplace_back(image_id, index++);
       }
     }
     images << "\n";
   }
+  return images.str();
+}
+
+// points3D.txt: the tag corners (blue: a known map's, orange: learned; error:
+// their reprojection RMS), then the feature points, each with its views.
+std::string PointsText(const ReconstructionResult& result, ColmapTracks& tracks) {
   const auto corner_stats = ComputeCornerStats(result);
   std::ostringstream points;
   points << std::setprecision(17) << "# 3D point list with one line of data per point:\n"
@@ -112,9 +125,20 @@ Status WriteColmapModel(const std::filesystem::path& dir, const ReconstructionRe
     for (const auto& [img, idx] : tracks[point_id]) points << " " << img << " " << idx;
     points << "\n";
   }
-  if (Status s = WriteFileAtomically(dir / "cameras.txt", cameras.str()); !s) return s;
-  if (Status s = WriteFileAtomically(dir / "images.txt", images.str()); !s) return s;
-  return WriteFileAtomically(dir / "points3D.txt", points.str());
+  return points.str();
+}
+
+}  // namespace
+
+Status WriteColmapModel(const std::filesystem::path& dir, const ReconstructionResult& result, const RunStats& stats) {
+  std::error_code ec;
+  std::filesystem::create_directories(dir, ec);
+  if (ec) return MakeError(dir.string() + ": cannot create (" + ec.message() + ")");
+  ColmapTracks tracks;
+  const std::string images = ImagesText(result, stats, &tracks);
+  if (Status s = WriteFileAtomically(dir / "cameras.txt", CamerasText(result.camera)); !s) return s;
+  if (Status s = WriteFileAtomically(dir / "images.txt", images); !s) return s;
+  return WriteFileAtomically(dir / "points3D.txt", PointsText(result, tracks));
 }
 
 }  // namespace tagsfm
