@@ -758,6 +758,82 @@ void StartLevels(const std::vector<BandPixel>& band, EdgeParams* params) {
   params->beyond = params->outside;
 }
 
+// With lens distortion the edges are straight only in undistorted pixels:
+// the fit works there (the corners go back through the distortion after).
+// Sets `undistortion` and undistorts `start` when the camera has a lens;
+// false when that fails.
+bool UndistortStart(const CameraModel* camera, int n, QuadCorners* start,
+                    std::optional<LocalUndistortion>* undistortion) {
+  if (camera == nullptr || !camera->HasDistortion()) return true;
+  Eigen::Vector2d low = (*start)[0], high = (*start)[0];
+  for (const Eigen::Vector2d& c : *start) {
+    low = low.cwiseMin(c);
+    high = high.cwiseMax(c);
+  }
+  const double reach = 2.0 + 2.5 * (high - low).maxCoeff() / n;  // the band's reach beyond the corners
+  *undistortion = LocalUndistortion::Fit(*camera, low.array() - reach, high.array() + reach);
+  if (!*undistortion) return false;
+  for (Eigen::Vector2d& c : *start) c = (*undistortion)->Undistort(c);
+  return std::all_of(start->begin(), start->end(), [](const Eigen::Vector2d& c) { return c.allFinite(); });
+}
+
+// Edge i's line through corners i and i+1, its normal pointing out of the quad.
+std::array<EdgeLine, 4> StartLines(const QuadCorners& corners) {
+  std::array<EdgeLine, 4> lines;
+  const Eigen::Vector2d center = 0.25 * (corners[0] + corners[1] + corners[2] + corners[3]);
+  for (int i = 0; i < 4; ++i) {
+    const Eigen::Vector2d from = corners[i], to = corners[(i + 1) % 4];
+    Eigen::Vector2d normal = Eigen::Vector2d(-(to - from).y(), (to - from).x()).normalized();
+    if (normal.dot(0.5 * (from + to) - center) < 0.0) normal = -normal;
+    lines[i] = {normal, normal.dot(from)};
+  }
+  return lines;
+}
+
+// One pass over the four edges: each edge's band sampled from `corners`
+// (half of it when `coarse`), its model fitted from the edge's line and
+// levels, then the corners placed where the new lines meet. False when an
+// edge cannot be fitted.
+bool FitEdgesOnce(const cv::Mat& gray8, int n, bool coarse, double end_margin_modules,
+                  const LocalUndistortion* pixel_map, const std::array<EdgeModel, 4>& models, QuadCorners* corners,
+                  std::array<EdgeParams, 4>* params, std::array<EdgeLine, 4>* lines) {
+  const std::optional<Eigen::Matrix3d> image_from_square = HomographyFrom4(CornerSquareCorners(n), *corners);
+  if (!image_from_square) return false;
+  for (int i = 0; i < 4; ++i) {
+    Eigen::Vector2d origin = Eigen::Vector2d::Zero();
+    std::vector<BandPixel> band =
+        CollectBand(gray8, *image_from_square, n, i, end_margin_modules, pixel_map, coarse, &origin);
+    if (coarse && band.size() < 24) {  // a tiny tag: half its band is too few pixels
+      band = CollectBand(gray8, *image_from_square, n, i, end_margin_modules, pixel_map, false, &origin);
+    }
+    if (band.size() < 12) return false;
+    EdgeParams& e = (*params)[i];
+    EdgeLine& line = (*lines)[i];
+    const EdgeLine& previous = (*lines)[(i + 3) % 4];
+    const EdgeLine& next = (*lines)[(i + 1) % 4];
+    e.theta = std::atan2(line.normal.y(), line.normal.x());
+    e.rho = line.offset - line.normal.dot(origin);  // relative to the band's centroid
+    for (BandPixel& p : band) {
+      const Eigen::Vector2d x = p.position + origin;
+      p.beyond_prev = previous.normal.dot(x) - previous.offset;
+      p.beyond_next = next.normal.dot(x) - next.offset;
+    }
+    if (coarse) StartLevels(band, &e);
+    const double half_length = 0.5 * ((*corners)[(i + 1) % 4] - (*corners)[i]).norm();
+    // The second pass starts at the first's minimum: a few steps suffice.
+    const int max_iterations = coarse ? 5 : 3;
+    const double stop_px = coarse ? 0.01 : 1e-4;
+    const double shade_tolerance = coarse ? 0.1 : 0.02;
+    if (!FitEdgeModel(models[i], half_length, max_iterations, stop_px, shade_tolerance, &band, &e)) return false;
+    line.normal = Eigen::Vector2d(std::cos(e.theta), std::sin(e.theta));
+    line.offset = e.rho + line.normal.dot(origin);
+  }
+  for (int i = 0; i < 4; ++i) {
+    if (!Intersect((*lines)[(i + 3) % 4], (*lines)[i], &(*corners)[i])) return false;
+  }
+  return true;
+}
+
 }  // namespace
 
 bool RefineCornersByEdgeLines(const cv::Mat& gray8, const TagLayout& layout, QuadCorners* corners,
@@ -768,24 +844,9 @@ bool RefineCornersByEdgeLines(const cv::Mat& gray8, const TagLayout& layout, Qua
   for (const Eigen::Vector2d& c : *corners) {
     if (!c.allFinite()) return false;
   }
-  // With lens distortion the edges are straight only in undistorted pixels:
-  // the fit works there, and the corners go back through the distortion.
   std::optional<LocalUndistortion> undistortion;
   QuadCorners initial = *corners;
-  if (camera != nullptr && camera->HasDistortion()) {
-    Eigen::Vector2d low = initial[0], high = initial[0];
-    for (const Eigen::Vector2d& c : initial) {
-      low = low.cwiseMin(c);
-      high = high.cwiseMax(c);
-    }
-    const double reach = 2.0 + 2.5 * (high - low).maxCoeff() / n;  // the band's reach beyond the corners
-    undistortion = LocalUndistortion::Fit(*camera, low.array() - reach, high.array() + reach);
-    if (!undistortion) return false;
-    for (Eigen::Vector2d& c : initial) c = undistortion->Undistort(c);
-    if (!std::all_of(initial.begin(), initial.end(), [](const Eigen::Vector2d& c) { return c.allFinite(); })) {
-      return false;
-    }
-  }
+  if (!UndistortStart(camera, n, &initial, &undistortion)) return false;
   const LocalUndistortion* pixel_map = undistortion ? &*undistortion : nullptr;
   double mean_side = 0.0;
   for (int i = 0; i < 4; ++i) mean_side += 0.25 * (initial[(i + 1) % 4] - initial[i]).norm();
@@ -795,15 +856,8 @@ bool RefineCornersByEdgeLines(const cv::Mat& gray8, const TagLayout& layout, Qua
   const double end_margin_modules = std::clamp(1.5 / module_px, 0.3, 0.25 * n);
 
   QuadCorners current = initial;
-  std::array<EdgeParams, 4> params;  // levels and blur carry over between passes
-  std::array<EdgeLine, 4> lines;     // edge i runs from corner i to corner i+1
-  for (int i = 0; i < 4; ++i) {
-    const Eigen::Vector2d from = initial[i], to = initial[(i + 1) % 4];
-    const Eigen::Vector2d center = 0.25 * (initial[0] + initial[1] + initial[2] + initial[3]);
-    Eigen::Vector2d normal = Eigen::Vector2d(-(to - from).y(), (to - from).x()).normalized();
-    if (normal.dot(0.5 * (from + to) - center) < 0.0) normal = -normal;
-    lines[i] = {normal, normal.dot(from)};
-  }
+  std::array<EdgeParams, 4> params;                   // levels and blur carry over between passes
+  std::array<EdgeLine, 4> lines = StartLines(initial);  // edge i runs from corner i to corner i+1
   // The first pass only needs to come close: it fits half the band's
   // pixels (a checkerboard) and stops at 0.01 px steps (it converges in ~2
   // steps from libapriltag's corners; measured, ~40 % of the fit's time
@@ -814,41 +868,8 @@ bool RefineCornersByEdgeLines(const cv::Mat& gray8, const TagLayout& layout, Qua
   // vectors' allocations, ~2 % of the refinement).
   const std::array<EdgeModel, 4> models = {EdgeModel(RowsBehindEdge(layout, 0)), EdgeModel(RowsBehindEdge(layout, 1)),
                                            EdgeModel(RowsBehindEdge(layout, 2)), EdgeModel(RowsBehindEdge(layout, 3))};
-  for (int pass = 0; pass < 2; ++pass) {
-    const bool coarse = pass == 0;
-    const std::optional<Eigen::Matrix3d> image_from_square = HomographyFrom4(CornerSquareCorners(n), current);
-    if (!image_from_square) return false;
-    for (int i = 0; i < 4; ++i) {
-      Eigen::Vector2d origin = Eigen::Vector2d::Zero();
-      std::vector<BandPixel> band =
-          CollectBand(gray8, *image_from_square, n, i, end_margin_modules, pixel_map, coarse, &origin);
-      if (coarse && band.size() < 24) {  // a tiny tag: half its band is too few pixels
-        band = CollectBand(gray8, *image_from_square, n, i, end_margin_modules, pixel_map, false, &origin);
-      }
-      if (band.size() < 12) return false;
-      EdgeParams& e = params[i];
-      e.theta = std::atan2(lines[i].normal.y(), lines[i].normal.x());
-      e.rho = lines[i].offset - lines[i].normal.dot(origin);  // relative to the band's centroid
-      for (BandPixel& p : band) {
-        const Eigen::Vector2d x = p.position + origin;
-        p.beyond_prev = lines[(i + 3) % 4].normal.dot(x) - lines[(i + 3) % 4].offset;
-        p.beyond_next = lines[(i + 1) % 4].normal.dot(x) - lines[(i + 1) % 4].offset;
-      }
-      if (pass == 0) StartLevels(band, &e);
-      const double half_length = 0.5 * (current[(i + 1) % 4] - current[i]).norm();
-      // The second pass starts at the first's minimum: a few steps suffice.
-      const int max_iterations = coarse ? 5 : 3;
-      const double stop_px = coarse ? 0.01 : 1e-4;
-      const double shade_tolerance = coarse ? 0.1 : 0.02;
-      if (!FitEdgeModel(models[i], half_length, max_iterations, stop_px, shade_tolerance, &band, &e)) {
-        return false;
-      }
-      lines[i].normal = Eigen::Vector2d(std::cos(e.theta), std::sin(e.theta));
-      lines[i].offset = e.rho + lines[i].normal.dot(origin);
-    }
-    for (int i = 0; i < 4; ++i) {
-      if (!Intersect(lines[(i + 3) % 4], lines[i], &current[i])) return false;
-    }
+  for (const bool coarse : {true, false}) {
+    if (!FitEdgesOnce(gray8, n, coarse, end_margin_modules, pixel_map, models, &current, &params, &lines)) return false;
   }
   // A refinement that moves a corner by more than half a module has locked
   // onto something else; the start is then the better answer.
