@@ -1,6 +1,9 @@
 // Section 4.2: camera pose from many cameras around vehicle-sized objects.
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <random>
+#include <vector>
 
 #include "experiment_common.h"
 #include "tagsfm/analysis/experiments.h"
@@ -178,6 +181,73 @@ ExperimentResult RunTargetsPointNoise(const ExperimentOptions& options) {
   return result;
 }
 
+namespace {
+
+constexpr int kDistributionTargets = 50;
+
+// Target-distribution's two sets among a camera's visible points: 50 within
+// a ball (1 unit, grown until it holds them) round a random visible point,
+// and 50 anywhere.
+std::array<std::vector<int>, 2> ClusteredAndSpreadTargets(const SyntheticObject& object, const std::vector<int>& visible,
+                                                          std::mt19937& rng) {
+  constexpr double kClusterRadius = 1.0;  // units: about 15% of the hull's length
+  std::uniform_int_distribution<int> pick(0, static_cast<int>(visible.size()) - 1);
+  const Eigen::Vector3d seed_point = object.surface[visible[pick(rng)]].position;
+  std::vector<int> near;
+  for (double radius = kClusterRadius; static_cast<int>(near.size()) < kDistributionTargets; radius *= 1.25) {
+    near.clear();
+    for (int index : visible) {
+      if ((object.surface[index].position - seed_point).norm() <= radius) near.push_back(index);
+    }
+  }
+  std::array<std::vector<int>, 2> samples;
+  samples[0] = SampleWithoutReplacement(near, kDistributionTargets, rng);
+  samples[1] = SampleWithoutReplacement(visible, kDistributionTargets, rng);
+  return samples;
+}
+
+// One target set (series `set`: 0 clustered, 1 spread) seen by one camera
+// at every image noise of the grid: EPnP and EPnP+LM measured, the error
+// model's prediction, and the set's RMS image spread.
+void MeasureTargetSet(const SyntheticObject& object, const std::vector<int>& targets, const Rigid3d& cam_from_world,
+                      const CameraModel& camera, const Grid& grid, int set, std::mt19937& rng,
+                      std::normal_distribution<double>& noise, Accumulator& out) {
+  std::vector<Eigen::Vector3d> points, points_in_cam;
+  std::vector<Eigen::Vector2d> pixels;
+  Eigen::Vector2d centroid = Eigen::Vector2d::Zero();
+  for (int index : targets) {
+    points.push_back(object.surface[index].position);
+    points_in_cam.push_back(cam_from_world * points.back());
+    pixels.push_back(ProjectToPixel(camera, points_in_cam.back()));
+    centroid += pixels.back() / kDistributionTargets;
+  }
+  double spread_sq = 0;
+  for (const Eigen::Vector2d& p : pixels) spread_sq += (p - centroid).squaredNorm() / kDistributionTargets;
+  for (size_t x = 0; x < grid.xs.size(); ++x) {
+    std::vector<Eigen::Vector2d> noisy;
+    for (const Eigen::Vector2d& p : pixels) noisy.push_back(p + grid.xs[x] * Eigen::Vector2d(noise(rng), noise(rng)));
+    for (int solver = 0; solver < 2; ++solver) {  // the paper's EPnP, and EPnP + LM (maximum likelihood)
+      const SolvedPose pose = SolvePose(solver == 0 ? PoseSolver::kEpnp : PoseSolver::kEpnpLm, points, noisy, camera);
+      if (!pose.ok) continue;
+      const int condition = grid.Index(0, 2 * solver + set, static_cast<int>(x));
+      AddPoseMetrics(out, condition, pose.cam_from_world, cam_from_world, points, noisy, camera);
+      out.Add(condition, 4, std::sqrt(spread_sq));
+    }
+    // The error model's prediction (RMS) for exactly these targets.
+    const auto covariance =
+        PoseCovariance(points_in_cam, camera.fx, std::vector<double>(kDistributionTargets, grid.xs[x]));
+    if (!covariance) continue;
+    const PoseErrorRms predicted = PoseErrorFromCovariance(*covariance);
+    const int condition = grid.Index(0, 4 + set, static_cast<int>(x));
+    out.Add(condition, 1, predicted.rotation_eq2);
+    out.Add(condition, 2, predicted.rotation_deg);
+    out.Add(condition, 3, predicted.position_m);
+    out.Add(condition, 4, std::sqrt(spread_sq));
+  }
+}
+
+}  // namespace
+
 ExperimentResult RunTargetDistribution(const ExperimentOptions& options) {
   ExperimentResult result;
   result.name = "target-distribution";
@@ -187,8 +257,6 @@ ExperimentResult RunTargetDistribution(const ExperimentOptions& options) {
   result.x_column = "image_noise_px";
   result.x_label = "image noise σ (px)";
   result.trials = options.trials;
-  constexpr int kTargets = 50;
-  constexpr double kClusterRadius = 1.0;  // units: about 15% of the hull's length
   Grid grid;
   grid.series = {"clustered EPnP", "spread EPnP", "clustered EPnP+LM", "spread EPnP+LM", "clustered model",
                  "spread model"};
@@ -204,53 +272,10 @@ ExperimentResult RunTargetDistribution(const ExperimentOptions& options) {
       const Rigid3d& cam_from_world = object.cameras[cameras[item]];
       std::mt19937 rng(ItemSeed(options.seed, 5, cameras[item]));
       const std::vector<int> visible = VisiblePoints(object.surface, cam_from_world, camera);
-      if (static_cast<int>(visible.size()) < kTargets) return;
-      // Clustered: 50 of the visible points within a ball around a random visible point.
-      std::uniform_int_distribution<int> pick(0, static_cast<int>(visible.size()) - 1);
-      const Eigen::Vector3d seed_point = object.surface[visible[pick(rng)]].position;
-      std::vector<int> near;
-      for (double radius = kClusterRadius; static_cast<int>(near.size()) < kTargets; radius *= 1.25) {
-        near.clear();
-        for (int index : visible) {
-          if ((object.surface[index].position - seed_point).norm() <= radius) near.push_back(index);
-        }
-      }
-      const std::vector<int> samples[2] = {SampleWithoutReplacement(near, kTargets, rng),
-                                           SampleWithoutReplacement(visible, kTargets, rng)};
-      std::normal_distribution<double> noise(0.0, 1.0);
-      for (int s = 0; s < 2; ++s) {
-        std::vector<Eigen::Vector3d> points, points_in_cam;
-        std::vector<Eigen::Vector2d> pixels;
-        Eigen::Vector2d centroid = Eigen::Vector2d::Zero();
-        for (int index : samples[s]) {
-          points.push_back(object.surface[index].position);
-          points_in_cam.push_back(cam_from_world * points.back());
-          pixels.push_back(ProjectToPixel(camera, points_in_cam.back()));
-          centroid += pixels.back() / kTargets;
-        }
-        double spread_sq = 0;
-        for (const Eigen::Vector2d& p : pixels) spread_sq += (p - centroid).squaredNorm() / kTargets;
-        for (size_t x = 0; x < grid.xs.size(); ++x) {
-          std::vector<Eigen::Vector2d> noisy;
-          for (const Eigen::Vector2d& p : pixels) noisy.push_back(p + grid.xs[x] * Eigen::Vector2d(noise(rng), noise(rng)));
-          for (int solver = 0; solver < 2; ++solver) {  // the paper's EPnP, and EPnP + LM (maximum likelihood)
-            const SolvedPose pose = SolvePose(solver == 0 ? PoseSolver::kEpnp : PoseSolver::kEpnpLm, points, noisy, camera);
-            if (!pose.ok) continue;
-            const int condition = grid.Index(0, 2 * solver + s, static_cast<int>(x));
-            AddPoseMetrics(out, condition, pose.cam_from_world, cam_from_world, points, noisy, camera);
-            out.Add(condition, 4, std::sqrt(spread_sq));
-          }
-          // The error model's prediction (RMS) for exactly these targets.
-          const auto covariance = PoseCovariance(points_in_cam, camera.fx, std::vector<double>(kTargets, grid.xs[x]));
-          if (!covariance) continue;
-          const PoseErrorRms predicted = PoseErrorFromCovariance(*covariance);
-          const int condition = grid.Index(0, 4 + s, static_cast<int>(x));
-          out.Add(condition, 1, predicted.rotation_eq2);
-          out.Add(condition, 2, predicted.rotation_deg);
-          out.Add(condition, 3, predicted.position_m);
-          out.Add(condition, 4, std::sqrt(spread_sq));
-        }
-      }
+      if (static_cast<int>(visible.size()) < kDistributionTargets) return;
+      const std::array<std::vector<int>, 2> sets = ClusteredAndSpreadTargets(object, visible, rng);
+      std::normal_distribution<double> noise(0.0, 1.0);  // one stream over both sets
+      for (int set = 0; set < 2; ++set) MeasureTargetSet(object, sets[set], cam_from_world, camera, grid, set, rng, noise, out);
     });
     AddRows(result, object.name, grid, metrics, values);
   }
