@@ -258,69 +258,82 @@ void Reconstructor::CountMethod(const FrameState& frame) {
   if (frame.fell_back) ++method_counts_["fallback"];
 }
 
-void Reconstructor::Register(FrameState& frame, bool adjust, FrameReport* report) {
+// 3D corners and their normalised observations, four per tag used.
+struct Reconstructor::FrameCorrespondences {
   std::vector<Eigen::Vector3d> points;
   std::vector<Eigen::Vector2d> observed;
   std::vector<TagObservation*> used;  // one per 4 correspondences
+
+  void Add(const TagCorners& corners, TagObservation* obs) {
+    for (int k = 0; k < 4; ++k) {
+      points.push_back(corners[k]);
+      observed.push_back(obs->normalized[k]);
+    }
+    used.push_back(obs);
+  }
+};
+
+Reconstructor::FrameCorrespondences Reconstructor::MappedCorners(FrameState& frame, bool adjust, FrameReport* report) {
+  FrameCorrespondences mapped;
   for (auto& obs : frame.tags) {
     obs.outlier = false;
     auto it = tags_.find(obs.id);
     if (it == tags_.end()) continue;
-    const TagCorners corners = it->second.CornersInWorld();
-    for (int k = 0; k < 4; ++k) {
-      points.push_back(corners[k]);
-      observed.push_back(obs.normalized[k]);
-    }
-    used.push_back(&obs);
+    mapped.Add(it->second.CornersInWorld(), &obs);
     ++report->tags_used;
   }
-  if (points.empty() && adjust) {
+  if (mapped.points.empty() && adjust) {
     // The chain of views would break here: put the frame's tags that earlier
     // registered frames saw into the map now, from the views there are (the
     // adjustments refine them as more views come).
     std::vector<TagId> forced = MapPendingTagsNow(frame);
     for (TagId id : forced) {
-      const TagCorners corners = tags_.at(id).CornersInWorld();
       TagObservation* obs = nullptr;
       for (auto& o : frame.tags) {
         if (o.id == id) obs = &o;
       }
-      for (int k = 0; k < 4; ++k) {
-        points.push_back(corners[k]);
-        observed.push_back(obs->normalized[k]);
-      }
-      used.push_back(obs);
+      mapped.Add(tags_.at(id).CornersInWorld(), obs);
       ++report->tags_used;
     }
     for (TagId id : forced) window_->AddTag(&tags_.at(id));
   }
-  if (points.empty()) {
+  return mapped;
+}
+
+PoseResult Reconstructor::SolveFramePose(const FrameState& frame, const FrameCorrespondences& mapped) {
+  PoseEstimatorOptions pose_options = options_.pose;
+  pose_options.corner_sigma_px = std::max(pose_options.corner_sigma_px, corner_noise_px_);
+  PoseResult pose = EstimatePose(mapped.points, mapped.observed, fx_, fy_, PreviousPose(frame), pose_options);
+  if (pose.registered) return pose;
+  // Noisier corners than the fixed limits allow? Measure this frame's
+  // corner noise from its tags' shapes and check against that instead.
+  const double sigma = MeasureFrameNoisePx(frame);
+  if (sigma > pose_options.corner_sigma_px) {
+    RememberNoise(sigma);
+    pose_options.corner_sigma_px = sigma;
+    pose = EstimatePose(mapped.points, mapped.observed, fx_, fy_, PreviousPose(frame), pose_options);
+  }
+  return pose;
+}
+
+void Reconstructor::Register(FrameState& frame, bool adjust, FrameReport* report) {
+  const FrameCorrespondences mapped = MappedCorners(frame, adjust, report);
+  if (mapped.points.empty()) {
     frame.reason = "none of its " + std::to_string(frame.tags.size()) + " tags is in the map yet";
     return;
   }
-  PoseEstimatorOptions pose_options = options_.pose;
-  pose_options.corner_sigma_px = std::max(pose_options.corner_sigma_px, corner_noise_px_);
-  PoseResult pose = EstimatePose(points, observed, fx_, fy_, PreviousPose(frame), pose_options);
-  if (!pose.registered) {
-    // Noisier corners than the fixed limits allow? Measure this frame's
-    // corner noise from its tags' shapes and check against that instead.
-    const double sigma = MeasureFrameNoisePx(frame);
-    if (sigma > pose_options.corner_sigma_px) {
-      RememberNoise(sigma);
-      pose_options.corner_sigma_px = sigma;
-      pose = EstimatePose(points, observed, fx_, fy_, PreviousPose(frame), pose_options);
-    }
-  }
+  const PoseResult pose = SolveFramePose(frame, mapped);
   if (!pose.registered) {
     frame.reason = pose.reason;
     return;
   }
   // Tags with a corner outside the pose's inliers stay out of the adjustments.
-  std::vector<bool> inlier(points.size(), false);
+  std::vector<bool> inlier(mapped.points.size(), false);
   for (int i : pose.inliers) inlier[i] = true;
-  for (size_t t = 0; t < used.size(); ++t) {
-    for (int k = 0; k < 4; ++k) used[t]->outlier = used[t]->outlier || !inlier[4 * t + k];
-    if (used[t]->outlier) report->outlier_tags.push_back(used[t]->id);
+  for (size_t t = 0; t < mapped.used.size(); ++t) {
+    TagObservation* used = mapped.used[t];
+    for (int k = 0; k < 4; ++k) used->outlier = used->outlier || !inlier[4 * t + k];
+    if (used->outlier) report->outlier_tags.push_back(used->id);
   }
   frame.registered = true;
   frame.reason.clear();

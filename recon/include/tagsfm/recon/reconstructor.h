@@ -142,6 +142,12 @@ class Reconstructor {
   void CollectReprojectionStatistics(const std::vector<FrameState*>& registered, ReconstructionResult* result) const;
   // Pose from the mapped tags it sees, then map new tags and adjust.
   void Register(FrameState& frame, bool adjust, FrameReport* report);
+  // Register's steps: the frame's corners on mapped tags (with `adjust`,
+  // its pending tags mapped first when none is); the pose from them, checked
+  // against this frame's own corner noise when the usual limit refuses it.
+  struct FrameCorrespondences;
+  FrameCorrespondences MappedCorners(FrameState& frame, bool adjust, FrameReport* report);
+  PoseResult SolveFramePose(const FrameState& frame, const FrameCorrespondences& mapped);
   int MapPendingTags(FrameState& frame, std::vector<TagId>* added);
   // Maps the frame's pending tags from the views they have, however few.
   std::vector<TagId> MapPendingTagsNow(const FrameState& frame);
