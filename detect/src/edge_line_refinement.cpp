@@ -282,89 +282,129 @@ class EdgeModel {
   std::array<Row, kRows> rows_;
 };
 
-// Gauss-Newton on the band's pixels (positions relative to the band's
-// centroid, so that the angle and the offset are decoupled), one pass over
-// the pixels per iteration: a step that raised the cost, seen at the next
-// pass, is taken back and halved. Stops when a step moves the line's ends
-// by less than `stop_px`.
-// The row shades are recomputed when the blur has changed by more than
-// `shade_tolerance` (relative) since they were last computed.
-bool FitEdgeModel(const EdgeModel& model, double half_length, int max_iterations, double stop_px,
-                  double shade_tolerance, std::vector<BandPixel>* pixels, EdgeParams* params) {
+// Gauss-Newton on one edge's band (positions relative to the band's
+// centroid, so that the angle and the offset are decoupled), one step at a
+// time, each a pass over the band's pixels. A step that raised the cost,
+// seen at the next step, is taken back and halved; costs compare only while
+// the model stays the same (the row shades' blur, the adjacent lines).
+//
+// The row shades are recomputed whenever the blur has changed by more than
+// kShadeTolerance. A stale shade is not a small error: blurred along the
+// edge with too little blur, a row's white modules come out brighter and
+// its black ones darker, an error that is anti-correlated with the shade
+// itself and so pulls the edge one way. With shades held at a blur 7 %
+// (the first pass's old tolerance, 10 %) or 2 % (the second's) off, corners
+// came out 0.05 and 0.013 px inward on 28 px tags at 1.5 px blur,
+// noise-free (docs/detection.md, "Stale row shades").
+constexpr double kShadeTolerance = 1e-3;
+
+class EdgeFit {
+ public:
+  EdgeFit(const EdgeModel* model, std::vector<BandPixel> band, const Eigen::Vector2d& origin, double half_length)
+      : model_(model), band_(std::move(band)), origin_(origin), half_length_(half_length), jr_(band_.size()) {}
+
+  const std::vector<BandPixel>& band() const { return band_; }
+  const Eigen::Vector2d& origin() const { return origin_; }
+
+  // The band's distances outside the adjacent edges' lines (image
+  // coordinates), where they have moved since the last call.
+  void SetAdjacentLines(const EdgeLine& previous, const EdgeLine& next) {
+    if (Same(previous, previous_line_) && Same(next, next_line_)) return;
+    previous_line_ = previous;
+    next_line_ = next;
+    for (BandPixel& p : band_) {
+      const Eigen::Vector2d x = p.position + origin_;
+      p.beyond_prev = previous.normal.dot(x) - previous.offset;
+      p.beyond_next = next.normal.dot(x) - next.offset;
+    }
+    previous_cost_ = std::numeric_limits<double>::infinity();  // a different model: costs do not compare
+  }
+
+  // One step from `params`; false when the system has no finite solution.
+  // `moved_px`: how far the step moved the line's ends.
+  bool Step(EdgeParams* params, double* moved_px);
+
+ private:
+  static bool Same(const EdgeLine& a, const EdgeLine& b) { return a.normal == b.normal && a.offset == b.offset; }
+
+  const EdgeModel* model_;
+  std::vector<BandPixel> band_;
+  Eigen::Vector2d origin_;
+  double half_length_;
+  std::vector<std::array<double, kParams + 1>> jr_;  // per pixel: the Jacobian row and the residual
+  EdgeLine previous_line_, next_line_;
+  double shade_sigma_ = -1.0;  // the row shades' blur; < 0: not yet set
+  EdgeParams previous_;
+  ParamVector last_step_ = ParamVector::Zero();
+  double previous_cost_ = std::numeric_limits<double>::infinity();
+};
+
+bool EdgeFit::Step(EdgeParams* params, double* moved_px) {
   constexpr int P = kParams;
   using Vector = ParamVector;
-  std::vector<BandPixel>& band = *pixels;
-  if (band.size() < 12) return false;
-  double shade_sigma = params->sigma;  // the row shades' blur
-  EdgeParams previous = *params;
-  Vector last_step = Vector::Zero();
-  double previous_cost = std::numeric_limits<double>::infinity();
-  std::vector<std::array<double, P + 1>> jr(band.size());
-  for (int iteration = 0; iteration < max_iterations; ++iteration) {
-    Eigen::Matrix<double, P, P> normal_matrix = Eigen::Matrix<double, P, P>::Zero();
-    Vector gradient = Vector::Zero();
-    ParamVector j;
-    double cost = 0.0;
-    if (std::abs(params->sigma - shade_sigma) > shade_tolerance * shade_sigma) {
-      shade_sigma = params->sigma;
-      previous_cost = std::numeric_limits<double>::infinity();  // a different model: costs do not compare
-    }
-    const Eigen::Vector2d normal(std::cos(params->theta), std::sin(params->theta));
-    // The normal matrix's 15 upper-triangle entries in plain doubles,
-    // mirrored once per iteration: Eigen's fixed-size outer product (itself
-    // far cheaper than its rankUpdate) summed all 25 (~1-2 % saved).
-    std::array<double, P * (P + 1) / 2> upper{};
-    // A local copy: the loop's stores (shades, jr) might alias *params, which
-    // kept 1/sigma from being hoisted out of it (~2-3 % saved).
-    const EdgeParams at = *params;
-    // Two loops, the model's and then the sums: the model's long chain of
-    // dependent look-ups overlaps better across pixels without the 21 sums
-    // in the same loop body (~3 % saved).
-    for (size_t i = 0; i < band.size(); ++i) {
-      BandPixel& p = band[i];
-      const double r = model.Evaluate(p, at, normal, shade_sigma, &j) - p.value;
-      for (int a = 0; a < P; ++a) jr[i][a] = j(a);
-      jr[i][P] = r;
-    }
-    for (const std::array<double, P + 1>& e : jr) {
-      for (int a = 0, k = 0; a < P; ++a) {
-        for (int b = a; b < P; ++b) upper[k++] += e[a] * e[b];
-      }
-      for (int a = 0; a < P; ++a) gradient(a) += e[a] * e[P];
-      cost += e[P] * e[P];
-    }
-    for (int a = 0, k = 0; a < P; ++a) {
-      for (int b = a; b < P; ++b) normal_matrix(a, b) = normal_matrix(b, a) = upper[k++];
-    }
-    // The level beyond the ring is seen only by the band's outermost pixels,
-    // and hardly at all where the ring is many pixels wide: damping its step
-    // (as if a thousandth of the band saw it fully) keeps the system regular
-    // there and leaves the minimum where it is.
-    normal_matrix(P - 1, P - 1) += 1e-3 * static_cast<double>(band.size());
-    Vector step;
-    if (cost > previous_cost) {
-      // Overshot: back to the previous point, half the step.
-      *params = previous;
-      step = 0.5 * last_step;
-    } else {
-      normal_matrix.diagonal() *= 1.0 + 1e-6;
-      step = normal_matrix.ldlt().solve(-gradient);
-      if (!step.allFinite()) return false;
-      previous = *params;
-      previous_cost = cost;
-    }
-    // A start off by up to a pixel needs no bigger steps than this.
-    step(1) = std::clamp(step(1), -0.5, 0.5);
-    step(4) = std::clamp(step(4), -0.3, 0.3);
-    last_step = step;
-    params->theta += step(0);
-    params->rho += step(1);
-    params->border += step(2);
-    params->outside += step(3);
-    params->sigma = std::clamp(params->sigma + step(4), 0.2, 10.0);
-    params->beyond += step(P - 1);
-    if (std::abs(step(1)) + std::abs(step(0)) * half_length < stop_px) return true;
+  if (shade_sigma_ < 0.0 || std::abs(params->sigma - shade_sigma_) > kShadeTolerance * shade_sigma_) {
+    shade_sigma_ = params->sigma;
+    previous_cost_ = std::numeric_limits<double>::infinity();  // a different model: costs do not compare
   }
+  Eigen::Matrix<double, P, P> normal_matrix = Eigen::Matrix<double, P, P>::Zero();
+  Vector gradient = Vector::Zero();
+  ParamVector j;
+  double cost = 0.0;
+  const Eigen::Vector2d normal(std::cos(params->theta), std::sin(params->theta));
+  // The normal matrix's 15 upper-triangle entries in plain doubles,
+  // mirrored once per step: Eigen's fixed-size outer product (itself far
+  // cheaper than its rankUpdate) summed all 25 (~1-2 % saved).
+  std::array<double, P * (P + 1) / 2> upper{};
+  // A local copy: the loop's stores (shades, jr) might alias *params, which
+  // kept 1/sigma from being hoisted out of it (~2-3 % saved).
+  const EdgeParams at = *params;
+  // Two loops, the model's and then the sums: the model's long chain of
+  // dependent look-ups overlaps better across pixels without the 21 sums
+  // in the same loop body (~3 % saved).
+  for (size_t i = 0; i < band_.size(); ++i) {
+    BandPixel& p = band_[i];
+    const double r = model_->Evaluate(p, at, normal, shade_sigma_, &j) - p.value;
+    for (int a = 0; a < P; ++a) jr_[i][a] = j(a);
+    jr_[i][P] = r;
+  }
+  for (const std::array<double, P + 1>& e : jr_) {
+    for (int a = 0, k = 0; a < P; ++a) {
+      for (int b = a; b < P; ++b) upper[k++] += e[a] * e[b];
+    }
+    for (int a = 0; a < P; ++a) gradient(a) += e[a] * e[P];
+    cost += e[P] * e[P];
+  }
+  for (int a = 0, k = 0; a < P; ++a) {
+    for (int b = a; b < P; ++b) normal_matrix(a, b) = normal_matrix(b, a) = upper[k++];
+  }
+  // The level beyond the ring is seen only by the band's outermost pixels,
+  // and hardly at all where the ring is many pixels wide: damping its step
+  // (as if a thousandth of the band saw it fully) keeps the system regular
+  // there and leaves the minimum where it is.
+  normal_matrix(P - 1, P - 1) += 1e-3 * static_cast<double>(band_.size());
+  Vector step;
+  if (cost > previous_cost_) {
+    // Overshot: back to the previous point, half the step.
+    *params = previous_;
+    step = 0.5 * last_step_;
+  } else {
+    normal_matrix.diagonal() *= 1.0 + 1e-6;
+    step = normal_matrix.ldlt().solve(-gradient);
+    if (!step.allFinite()) return false;
+    previous_ = *params;
+    previous_cost_ = cost;
+  }
+  // A start off by up to a pixel needs no bigger steps than this.
+  step(1) = std::clamp(step(1), -0.5, 0.5);
+  step(4) = std::clamp(step(4), -0.3, 0.3);
+  last_step_ = step;
+  params->theta += step(0);
+  params->rho += step(1);
+  params->border += step(2);
+  params->outside += step(3);
+  params->sigma = std::clamp(params->sigma + step(4), 0.2, 10.0);
+  params->beyond += step(P - 1);
+  *moved_px = std::abs(step(1)) + std::abs(step(0)) * half_length_;
   return true;
 }
 
@@ -792,13 +832,16 @@ std::array<EdgeLine, 4> StartLines(const QuadCorners& corners) {
 
 // One pass over the four edges: each edge's band sampled from `corners`
 // (half of it when `coarse`), its model fitted from the edge's line and
-// levels, then the corners placed where the new lines meet. False when an
-// edge cannot be fitted.
+// levels against the adjacent edges' latest lines, then the corners placed
+// where the new lines meet. False when an edge cannot be fitted.
 bool FitEdgesOnce(const cv::Mat& gray8, int n, bool coarse, double end_margin_modules,
                   const LocalUndistortion* pixel_map, const std::array<EdgeModel, 4>& models, QuadCorners* corners,
                   std::array<EdgeParams, 4>* params, std::array<EdgeLine, 4>* lines) {
   const std::optional<Eigen::Matrix3d> image_from_square = HomographyFrom4(CornerSquareCorners(n), *corners);
   if (!image_from_square) return false;
+  // The second pass starts at the first's minimum: a few steps suffice.
+  const int max_iterations = coarse ? 5 : 3;
+  const double stop_px = coarse ? 0.01 : 1e-4;
   for (int i = 0; i < 4; ++i) {
     Eigen::Vector2d origin = Eigen::Vector2d::Zero();
     std::vector<BandPixel> band =
@@ -807,24 +850,19 @@ bool FitEdgesOnce(const cv::Mat& gray8, int n, bool coarse, double end_margin_mo
       band = CollectBand(gray8, *image_from_square, n, i, end_margin_modules, pixel_map, false, &origin);
     }
     if (band.size() < 12) return false;
+    const double half_length = 0.5 * ((*corners)[(i + 1) % 4] - (*corners)[i]).norm();
+    EdgeFit fit(&models[i], std::move(band), origin, half_length);
+    fit.SetAdjacentLines((*lines)[(i + 3) % 4], (*lines)[(i + 1) % 4]);
     EdgeParams& e = (*params)[i];
     EdgeLine& line = (*lines)[i];
-    const EdgeLine& previous = (*lines)[(i + 3) % 4];
-    const EdgeLine& next = (*lines)[(i + 1) % 4];
     e.theta = std::atan2(line.normal.y(), line.normal.x());
     e.rho = line.offset - line.normal.dot(origin);  // relative to the band's centroid
-    for (BandPixel& p : band) {
-      const Eigen::Vector2d x = p.position + origin;
-      p.beyond_prev = previous.normal.dot(x) - previous.offset;
-      p.beyond_next = next.normal.dot(x) - next.offset;
+    if (coarse) StartLevels(fit.band(), &e);
+    for (int iteration = 0; iteration < max_iterations; ++iteration) {
+      double moved = 0.0;
+      if (!fit.Step(&e, &moved)) return false;
+      if (moved < stop_px) break;
     }
-    if (coarse) StartLevels(band, &e);
-    const double half_length = 0.5 * ((*corners)[(i + 1) % 4] - (*corners)[i]).norm();
-    // The second pass starts at the first's minimum: a few steps suffice.
-    const int max_iterations = coarse ? 5 : 3;
-    const double stop_px = coarse ? 0.01 : 1e-4;
-    const double shade_tolerance = coarse ? 0.1 : 0.02;
-    if (!FitEdgeModel(models[i], half_length, max_iterations, stop_px, shade_tolerance, &band, &e)) return false;
     line.normal = Eigen::Vector2d(std::cos(e.theta), std::sin(e.theta));
     line.offset = e.rho + line.normal.dot(origin);
   }
