@@ -1,12 +1,14 @@
 // Tag corners of rendered recordings against their truth, as JSON: the true
 // corners projected with the true poses and the recording's camera, the
 // detections of every frame by the full-frame detector (or the tracker, as
-// replay runs it), binned by module size. "size_ppm" is the mean relative
+// replay runs it), binned by module size and by view angle (between the
+// tag's normal and the ray to its centre). "size_ppm" is the mean relative
 // error of the detected tags' side lengths: what a self-survey's scale
 // inherits when every tag looks that much larger (+) or smaller (-).
 //
 //   corner_truth_bench REC... [--tracking] [--no-camera]
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -30,7 +32,9 @@ namespace {
 struct Bin {
   std::vector<double> errors, outward;
   std::vector<double> side_ratio;  // detected / true side length - 1, per side
+  std::vector<double> edge_outward;  // per edge: the detected corners' mean offset outside the true edge line
   void Add(const Bin& other) {
+    edge_outward.insert(edge_outward.end(), other.edge_outward.begin(), other.edge_outward.end());
     errors.insert(errors.end(), other.errors.begin(), other.errors.end());
     outward.insert(outward.end(), other.outward.begin(), other.outward.end());
     side_ratio.insert(side_ratio.end(), other.side_ratio.begin(), other.side_ratio.end());
@@ -41,6 +45,18 @@ double Percentile(std::vector<double> v, double q) {
   if (v.empty()) return NAN;
   std::sort(v.begin(), v.end());
   return v[std::min(v.size() - 1, static_cast<size_t>(q * (v.size() - 1) + 0.5))];
+}
+
+// Mean of the values within 0.5 (px) of zero.
+double Mean(const std::vector<double>& values) {
+  double sum = 0;
+  int count = 0;
+  for (double v : values) {
+    if (std::abs(v) > 0.5) continue;
+    sum += v;
+    ++count;
+  }
+  return count ? sum / count : NAN;
 }
 
 nlohmann::json BinJson(const Bin& bin) {
@@ -62,17 +78,40 @@ nlohmann::json BinJson(const Bin& bin) {
           {"median_px", Percentile(bin.errors, 0.5)},
           {"p95_px", Percentile(bin.errors, 0.95)},
           {"outward_bias_px", inliers ? outward_sum / inliers : NAN},
-          {"size_ppm", ratio_inliers ? 1e6 * ratio_sum / ratio_inliers : NAN}};
+          {"size_ppm", ratio_inliers ? 1e6 * ratio_sum / ratio_inliers : NAN},
+          {"edges", bin.edge_outward.size()},
+          {"edge_outward_px", Mean(bin.edge_outward)}};
 }
 
 // Module size bins (px, mean side / 10 modules for the 36h11 print's 8
 // black modules plus a white one each side is not assumed: side / 8).
 const std::vector<double> kBinEdges = {0, 2, 3, 4, 6, 1e9};
 
-int BinOf(double module_px) {
-  for (size_t b = 1; b < kBinEdges.size(); ++b)
-    if (module_px < kBinEdges[b]) return static_cast<int>(b - 1);
-  return static_cast<int>(kBinEdges.size() - 2);
+const std::vector<double> kAngleEdges = {0, 30, 45, 60, 75, 90};
+const std::vector<double> kAcrossEdges = {0, 1.5, 2, 2.5, 3, 4, 1e9};
+
+int BinOf(const std::vector<double>& edges, double value) {
+  for (size_t b = 1; b < edges.size(); ++b)
+    if (value < edges[b]) return static_cast<int>(b - 1);
+  return static_cast<int>(edges.size() - 2);
+}
+
+// Degrees between the tag's normal and the ray from the camera to its centre.
+double ViewAngleDeg(const std::array<Eigen::Vector3d, 4>& in_cam) {
+  const Eigen::Vector3d normal = (in_cam[1] - in_cam[0]).cross(in_cam[3] - in_cam[0]).normalized();
+  const Eigen::Vector3d ray = (0.25 * (in_cam[0] + in_cam[1] + in_cam[2] + in_cam[3])).normalized();
+  return std::acos(std::min(1.0, std::abs(normal.dot(ray)))) * 180.0 / M_PI;
+}
+
+nlohmann::json BinsJson(const std::vector<Bin>& bins, const std::vector<double>& edges, const char* unit) {
+  nlohmann::json out = nlohmann::json::object();
+  for (size_t b = 0; b < bins.size(); ++b) {
+    if (bins[b].errors.empty()) continue;
+    char name[64];
+    std::snprintf(name, sizeof(name), "%g_to_%g_%s", edges[b], std::min(edges[b + 1], 99.0), unit);
+    out[name] = BinJson(bins[b]);
+  }
+  return out;
 }
 
 nlohmann::json Measure(const fs::path& dir, bool tracking, bool with_camera) {
@@ -88,7 +127,7 @@ nlohmann::json Measure(const fs::path& dir, bool tracking, bool with_camera) {
   auto detector = TagDetector::Create(options);
   auto tracker = TagTracker::Create(options, TagTrackerOptions{});
   if (!detector || !tracker) return {{"error", "detector"}};
-  std::vector<Bin> bins(kBinEdges.size() - 1);
+  std::vector<Bin> bins(kBinEdges.size() - 1), by_angle(kAngleEdges.size() - 1), by_across(kAcrossEdges.size() - 1);
   int missing = 0, wrong = 0, found = 0;
   for (size_t i = 0; i < reader->entries().size(); ++i) {
     auto frame = reader->LoadFrame(i);
@@ -104,11 +143,12 @@ nlohmann::json Measure(const fs::path& dir, bool tracking, bool with_camera) {
         continue;
       }
       QuadCorners true_px;
+      std::array<Eigen::Vector3d, 4> in_cam;
       bool in_front = true;
       for (int k = 0; k < 4; ++k) {
-        const Eigen::Vector3d in_cam = pose->second * truth->second[k];
-        in_front = in_front && in_cam.z() > 0.05;
-        true_px[k] = in_front ? camera.Project(in_cam) : Eigen::Vector2d::Zero();
+        in_cam[k] = pose->second * truth->second[k];
+        in_front = in_front && in_cam[k].z() > 0.05;
+        true_px[k] = in_front ? camera.Project(in_cam[k]) : Eigen::Vector2d::Zero();
       }
       if (!in_front) {
         ++missing;
@@ -117,27 +157,48 @@ nlohmann::json Measure(const fs::path& dir, bool tracking, bool with_camera) {
       ++found;
       double side_sum = 0;
       for (int k = 0; k < 4; ++k) side_sum += (true_px[(k + 1) % 4] - true_px[k]).norm();
-      Bin& bin = bins[BinOf(side_sum / 4 / 8)];
+      Bin one;
       const Eigen::Vector2d centre = 0.25 * (true_px[0] + true_px[1] + true_px[2] + true_px[3]);
       for (int k = 0; k < 4; ++k) {
         const Eigen::Vector2d offset = det.corners[k] - true_px[k];
-        bin.errors.push_back(offset.norm());
-        bin.outward.push_back(offset.dot((true_px[k] - centre).normalized()));
+        one.errors.push_back(offset.norm());
+        one.outward.push_back(offset.dot((true_px[k] - centre).normalized()));
         const double true_side = (true_px[(k + 1) % 4] - true_px[k]).norm();
-        bin.side_ratio.push_back((det.corners[(k + 1) % 4] - det.corners[k]).norm() / true_side - 1);
+        one.side_ratio.push_back((det.corners[(k + 1) % 4] - det.corners[k]).norm() / true_side - 1);
       }
+      // Each edge: its offset outside the true line, binned by one module's
+      // width across it (the border's image width: what the blur meets).
+      const Eigen::Vector3d centre3 = 0.25 * (in_cam[0] + in_cam[1] + in_cam[2] + in_cam[3]);
+      for (int k = 0; k < 4; ++k) {
+        const Eigen::Vector2d a = true_px[k], b = true_px[(k + 1) % 4];
+        Eigen::Vector2d normal(-(b - a).y(), (b - a).x());
+        normal.normalize();
+        if (normal.dot(a - centre) < 0) normal = -normal;
+        const Eigen::Vector3d mid3 = 0.5 * (in_cam[k] + in_cam[(k + 1) % 4]);
+        const Eigen::Vector2d inward_px = camera.Project(mid3 + 0.25 * (centre3 - mid3));
+        const double across = normal.dot(camera.Project(mid3) - inward_px);
+        Bin edge;
+        edge.edge_outward.push_back(0.5 * (normal.dot(det.corners[k] - a) + normal.dot(det.corners[(k + 1) % 4] - b)));
+        by_across[BinOf(kAcrossEdges, across)].Add(edge);
+      }
+      bins[BinOf(kBinEdges, side_sum / 4 / 8)].Add(one);
+      by_angle[BinOf(kAngleEdges, ViewAngleDeg(in_cam))].Add(one);
     }
   }
   nlohmann::json out = {{"recording", dir.string()}, {"mode", tracking ? "tracking" : "full_frame"},
                         {"camera", with_camera}, {"tags", found}, {"wrong_ids", wrong}};
   Bin all;
-  for (size_t b = 0; b < bins.size(); ++b) {
-    all.Add(bins[b]);
-    if (bins[b].errors.empty()) continue;
+  for (const Bin& bin : bins) all.Add(bin);
+  out["by_module"] = BinsJson(bins, kBinEdges, "px");
+  out["by_view_angle"] = BinsJson(by_angle, kAngleEdges, "deg");
+  nlohmann::json across = nlohmann::json::object();
+  for (size_t b = 0; b < by_across.size(); ++b) {
+    if (by_across[b].edge_outward.empty()) continue;
     char name[64];
-    std::snprintf(name, sizeof(name), "module_%g_to_%g_px", kBinEdges[b], std::min(kBinEdges[b + 1], 99.0));
-    out["by_module"][name] = BinJson(bins[b]);
+    std::snprintf(name, sizeof(name), "%g_to_%g_px", kAcrossEdges[b], std::min(kAcrossEdges[b + 1], 99.0));
+    across[name] = {{"edges", by_across[b].edge_outward.size()}, {"outward_px", Mean(by_across[b].edge_outward)}};
   }
+  out["edges_by_module_across"] = across;
   out["all"] = BinJson(all);
   return out;
 }
