@@ -31,6 +31,10 @@ const std::vector<ExperimentInfo>& ExperimentCatalogue() {
        "whole target pipeline (Reconstructor, sliding-window + final BA, no known map) vs distance 1.25-3.5 m and "
        "corner noise 0.1-1 px",
        12, "walk-arounds (tag layouts and camera paths) per condition"},
+      {"hybrid", "beyond the paper",
+       "hybrid feature points through the whole pipeline on rendered walks (true target map) vs distance 1-3 m and "
+       "image noise 1-8 grey levels, next to the error model's σ",
+       1, "rendered scenes per condition"},
   };
   return catalogue;
 }
@@ -51,7 +55,7 @@ Result<ExperimentResult> RunExperiment(const std::string& name, const Experiment
       {"depth-image-noise", &RunDepthImageNoise},     {"depth-point-noise", &RunDepthPointNoise},
       {"targets-image-noise", &RunTargetsImageNoise}, {"targets-point-noise", &RunTargetsPointNoise},
       {"target-distribution", &RunTargetDistribution}, {"pipeline", &RunPipeline},
-      {"pipeline-map", &RunPipelineMap}};
+      {"pipeline-map", &RunPipelineMap},              {"hybrid", &RunHybrid}};
   for (const auto& [runner_name, runner] : runners) {
     if (name != runner_name) continue;
     const auto start = std::chrono::steady_clock::now();

@@ -170,7 +170,7 @@ TEST(AnalysisExperiments, RejectsUnknownNamesAndBadOptions) {
   bad.trials = -1;
   ASSERT_FALSE(RunExperiment("depth-image-noise", bad).has_value());
   EXPECT_NE(RunExperiment("depth-image-noise", bad).error().message.find("--trials"), std::string::npos);
-  EXPECT_EQ(ExperimentCatalogue().size(), 7u);  // the paper's five, pipeline, pipeline-map
+  EXPECT_EQ(ExperimentCatalogue().size(), 8u);  // the paper's five, pipeline, pipeline-map, hybrid
 }
 
 }  // namespace

@@ -1,6 +1,8 @@
 // The sweeps beyond the paper: the project's pose estimator and the error
 // model on tag corners, and the whole target pipeline (Slow: ~5-10 s each in
 // Release; the estimator runs RANSAC and bundle adjustment).
+#include <cstdio>
+
 #include <gtest/gtest.h>
 
 #include "tagsfm/analysis/experiments.h"
@@ -70,6 +72,44 @@ TEST(AnalysisPipelineSlow, MapErrorGrowsWithNoiseAndDistance) {
   EXPECT_GT(median("0.1", 3.5, "camera_centre_median_mm"), 2 * median("0.1", 1.75, "camera_centre_median_mm"));
   // Sub-millimetre map at 0.1 px and 1.75 m (0.2 mm in the full run).
   EXPECT_LT(median("0.1", 1.75, "target_corner_rms_mm"), 1.0);
+}
+
+// The hybrid sweep's measurement on three of its walks (~15 s each): the
+// feature points' error follows the image noise and the distance, and the
+// error model's sigma covers it (the full run's figures in docs/features.md).
+TEST(AnalysisPipelineSlow, HybridPointErrorFollowsNoiseAndDistanceWithinItsSigma) {
+  auto walk = [](double noise, double distance) {
+    synth::SynthOptions render;
+    render.frames = 10;
+    render.max_azimuth_deg = 30.0;
+    render.min_distance = 0.85 * distance;
+    render.max_distance = 1.15 * distance;
+    render.noise = noise;
+    render.seed = 3;
+    const Result<HybridWalkFigures> figures = MeasureHybridWalk(render);
+    EXPECT_TRUE(figures.has_value()) << figures.error().message;
+    std::printf("noise %.0f, %.1f m: %d points, median error %.3f mm, median sigma %.3f mm, %.3f within 2 sigma\n",
+                noise, distance, figures ? figures->points : 0, figures ? 1000 * figures->error_median_m : 0,
+                figures ? 1000 * figures->sigma_median_m : 0, figures ? figures->within_two_sigma : 0);
+    return figures.has_value() ? *figures : HybridWalkFigures{};
+  };
+  const HybridWalkFigures quiet = walk(1, 2.0), noisy = walk(8, 2.0), far = walk(1, 3.0);
+  for (const HybridWalkFigures* f : {&quiet, &noisy, &far}) {
+    ASSERT_GT(f->points, 1000);
+    // The sigma is honest or conservative (a Gaussian's share within 2 sigma
+    // is 0.954; measured 0.97-0.995)...
+    EXPECT_GE(f->within_two_sigma, 0.95);
+    // ...but not by more than 10x (honest: median error 0.67 sigma; measured
+    // 0.14-0.4 sigma).
+    EXPECT_GT(f->error_median_m, 0.067 * f->sigma_median_m);
+  }
+  // 8x the image noise: the points' error at least 2x (3.9x measured at 2 m).
+  EXPECT_GT(noisy.error_median_m, 2.0 * quiet.error_median_m);
+  // 1.5x the distance: worse (1.25x measured at noise 1; depth x angular error,
+  // partly offset by the larger share of the box's near faces in view).
+  EXPECT_GT(far.error_median_m, 1.05 * quiet.error_median_m);
+  // Sub-millimetre at noise 1 and 2 m (0.19 mm measured).
+  EXPECT_LT(quiet.error_median_m, 1e-3);
 }
 
 }  // namespace

@@ -8,12 +8,14 @@
 //   target-distribution  4.2.3, fig. 7: 50 points clustered vs spread
 //   pipeline             EPnP vs EPnP+LM vs tagsfm's estimator vs the error model, on tag corners
 //   pipeline-map         the whole target pipeline (recon's Reconstructor, no known map) vs distance and noise
+//   hybrid               the feature points through the whole pipeline on rendered walks vs distance and image noise
 #include <cstdint>
 #include <string>
 #include <vector>
 
 #include "tagsfm/analysis/experiment_result.h"
 #include "tagsfm/core/result.h"
+#include "tagsfm/synth/synth_options.h"
 
 namespace tagsfm::analysis {
 
@@ -47,5 +49,16 @@ ExperimentResult RunTargetsPointNoise(const ExperimentOptions& options);
 ExperimentResult RunTargetDistribution(const ExperimentOptions& options);
 ExperimentResult RunPipeline(const ExperimentOptions& options);
 ExperimentResult RunPipelineMap(const ExperimentOptions& options);
+ExperimentResult RunHybrid(const ExperimentOptions& options);
+
+// One of the hybrid sweep's walks: rendered, replayed with its true map, its
+// feature points against the true surfaces.
+struct HybridWalkFigures {
+  int points = 0;
+  double error_median_m = 0;     // distance to the nearest true surface
+  double sigma_median_m = 0;     // the error model's, along that surface's normal
+  double within_two_sigma = 0;   // share of points with error <= 2 sigma
+};
+Result<HybridWalkFigures> MeasureHybridWalk(const synth::SynthOptions& render);
 
 }  // namespace tagsfm::analysis
