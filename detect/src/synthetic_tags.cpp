@@ -72,88 +72,118 @@ class CanvasMap {
 // `fine_samples` points (`fine_step` its generator), whose points all differ
 // in x and in y, so an edge at any angle is placed to 1/fine_samples px (a
 // regular grid would quantise an axis-aligned edge to 1/supersample px).
+// One tag as the raster draws it: its bitmap placed in the image by a
+// homography, the white paper round it and its shade.
+struct TagRaster {
+  std::unique_ptr<image_u8_t, ImageU8Deleter> bitmap;
+  const CanvasMap* map = nullptr;
+  Eigen::Matrix3d image_from_square, square_from_image;
+  int total = 0;              // the bitmap's width, modules (its own white ring included)
+  double border_start = 0.0;  // where the detector's square starts in the bitmap, modules
+  double across = 0.0;        // the detector's square's width, modules
+  double paper = 0.0;         // the white margin beyond the bitmap's own ring, modules
+  double white = 0.0, black = 0.0;
+
+  // Value of the bitmap (or -1 outside it and its paper) at an image point.
+  double Value(double x, double y) const {
+    const Eigen::Vector3d q = square_from_image * map->ToScene(x, y).homogeneous();
+    const double bx = q.x() / q.z() + border_start;
+    const double by = q.y() / q.z() + border_start;
+    if (!(bx >= 0 && by >= 0 && bx < total && by < total)) {
+      const bool on_paper = bx >= -paper && by >= -paper && bx < total + paper && by < total + paper;
+      return on_paper ? white : -1.0;
+    }
+    const uint8_t bit = bitmap->buf[static_cast<int>(by) * bitmap->stride + static_cast<int>(bx)];
+    return bit != 0 ? white : black;
+  }
+};
+
+Result<TagRaster> MakeTagRaster(apriltag_family_t* fam, const std::string& family_name, const PlacedTag& tag,
+                                const TagRenderOptions& options, const CanvasMap& map) {
+  if (tag.id < 0 || tag.id >= static_cast<int>(fam->ncodes)) {
+    return MakeError("RenderTags: id " + std::to_string(tag.id) + " not in " + family_name);
+  }
+  TagRaster raster;
+  raster.bitmap.reset(apriltag_to_image(fam, tag.id));
+  raster.map = &map;
+  raster.total = fam->total_width;
+  raster.border_start = (fam->total_width - fam->width_at_border) / 2;
+  raster.across = fam->width_at_border;
+  // This tag's lighting (TagRenderOptions::tag_shade_variation), from the
+  // seed and the id, so it does not depend on the other tags.
+  std::mt19937_64 shade_rng(options.seed * 0x9E3779B97F4A7C15ULL + static_cast<std::uint64_t>(tag.id));
+  const double shade = 1.0 - options.tag_shade_variation * std::uniform_real_distribution<double>(0.0, 1.0)(shade_rng);
+  raster.white = shade * options.white;
+  raster.black = shade * options.black;
+  raster.paper = std::max(0.0, options.margin_modules - raster.border_start);
+  // Corner-square coordinates (modules, x right, y down, origin at the
+  // square's top-left) of libapriltag's corners 0..3: bottom-left,
+  // bottom-right, top-right, top-left.
+  const QuadCorners square = CornerSquareCorners(fam->width_at_border);
+  const std::optional<Eigen::Matrix3d> homography = HomographyFrom4(square, tag.corners);
+  if (!homography) return MakeError("RenderTags: degenerate corners for tag " + std::to_string(tag.id));
+  raster.image_from_square = *homography;
+  raster.square_from_image = homography->inverse();
+  return raster;
+}
+
+// The pixels [x0, x1] x [y0, y1] the bitmap with its paper can touch.
+struct PixelBox {
+  int x0 = 0, x1 = -1, y0 = 0, y1 = -1;
+};
+PixelBox PixelsTouched(const TagRaster& raster, int width, int height, bool distorted) {
+  double x_min = 1e9, x_max = -1e9, y_min = 1e9, y_max = -1e9;
+  const double reach = raster.border_start + raster.paper;
+  for (double u : {-reach, raster.across + reach}) {
+    for (double v : {-reach, raster.across + reach}) {
+      const Eigen::Vector2d p = raster.map->ToCanvas((raster.image_from_square * Eigen::Vector3d(u, v, 1.0)).hnormalized());
+      x_min = std::min(x_min, p.x());
+      x_max = std::max(x_max, p.x());
+      y_min = std::min(y_min, p.y());
+      y_max = std::max(y_max, p.y());
+    }
+  }
+  // (Under distortion the sides bow: a wider margin.)
+  const int margin = distorted ? 2 + static_cast<int>(0.05 * (x_max - x_min + y_max - y_min)) : 1;
+  return {std::max(0, static_cast<int>(std::floor(x_min)) - margin),
+          std::min(width - 1, static_cast<int>(std::ceil(x_max)) + margin),
+          std::max(0, static_cast<int>(std::floor(y_min)) - margin),
+          std::min(height - 1, static_cast<int>(std::ceil(y_max)) + margin)};
+}
+
+// Pixel (x, y)'s value with the tag drawn over `under`: the bitmap's where
+// all of a coarse `supersample` grid agrees, else the mean over the fine
+// lattice (see DrawTags), `under` where a sample falls off the paper.
+float PixelValue(const TagRaster& raster, int x, int y, int supersample, int fine_samples, int fine_step, float under) {
+  const int s = supersample;
+  const double first = raster.Value(x - 0.5 + 0.5 / s, y - 0.5 + 0.5 / s);
+  bool uniform = true;
+  for (int sy = 0; sy < s && uniform; ++sy) {
+    for (int sx = 0; sx < s && uniform; ++sx) {
+      uniform = raster.Value(x - 0.5 + (sx + 0.5) / s, y - 0.5 + (sy + 0.5) / s) == first;
+    }
+  }
+  if (uniform) return first >= 0.0 ? static_cast<float>(first) : under;
+  double sum = 0.0;
+  for (int i = 0; i < fine_samples; ++i) {
+    const double fx = (i + 0.5) / fine_samples;
+    const double fy = std::fmod((static_cast<double>(i) * fine_step + 0.5) / fine_samples, 1.0);
+    const double v = raster.Value(x - 0.5 + fx, y - 0.5 + fy);
+    sum += v >= 0.0 ? v : under;
+  }
+  return static_cast<float>(sum / fine_samples);
+}
+
 Status DrawTags(apriltag_family_t* fam, const std::string& family_name, const std::vector<PlacedTag>& tags,
                 const TagRenderOptions& options, const CanvasMap& map, int supersample, int fine_samples, int fine_step,
                 cv::Mat* canvas) {
-  const int width = canvas->cols, height = canvas->rows;
-  const int total = fam->total_width;
-  const double border_start = (fam->total_width - fam->width_at_border) / 2;
-  const double across = fam->width_at_border;
   for (const PlacedTag& tag : tags) {
-    if (tag.id < 0 || tag.id >= static_cast<int>(fam->ncodes)) {
-      return MakeError("RenderTags: id " + std::to_string(tag.id) + " not in " + family_name);
-    }
-    std::unique_ptr<image_u8_t, ImageU8Deleter> bitmap(apriltag_to_image(fam, tag.id));
-    // Corner-square coordinates (modules, x right, y down, origin at the
-    // square's top-left) of libapriltag's corners 0..3: bottom-left,
-    // bottom-right, top-right, top-left.
-    // This tag's lighting (TagRenderOptions::tag_shade_variation), from the
-    // seed and the id, so it does not depend on the other tags.
-    std::mt19937_64 shade_rng(options.seed * 0x9E3779B97F4A7C15ULL + static_cast<std::uint64_t>(tag.id));
-    const double shade = 1.0 - options.tag_shade_variation * std::uniform_real_distribution<double>(0.0, 1.0)(shade_rng);
-    const double white = shade * options.white, black = shade * options.black;
-    // The white margin beyond the bitmap's own ring.
-    const double paper = std::max(0.0, options.margin_modules - border_start);
-    const QuadCorners square = CornerSquareCorners(fam->width_at_border);
-    const std::optional<Eigen::Matrix3d> homography = HomographyFrom4(square, tag.corners);
-    if (!homography) return MakeError("RenderTags: degenerate corners for tag " + std::to_string(tag.id));
-    const Eigen::Matrix3d& h = *homography;
-    const Eigen::Matrix3d square_from_image = h.inverse();
-
-    // Pixels the bitmap (with its white margin) can touch.
-    double x_min = 1e9, x_max = -1e9, y_min = 1e9, y_max = -1e9;
-    const double reach = border_start + paper;
-    for (double u : {-reach, across + reach}) {
-      for (double v : {-reach, across + reach}) {
-        const Eigen::Vector2d p = map.ToCanvas((h * Eigen::Vector3d(u, v, 1.0)).hnormalized());
-        x_min = std::min(x_min, p.x());
-        x_max = std::max(x_max, p.x());
-        y_min = std::min(y_min, p.y());
-        y_max = std::max(y_max, p.y());
-      }
-    }
-    // (Under distortion the sides bow: a wider margin.)
-    const int margin = options.camera != nullptr ? 2 + static_cast<int>(0.05 * (x_max - x_min + y_max - y_min)) : 1;
-    const int x0 = std::max(0, static_cast<int>(std::floor(x_min)) - margin);
-    const int x1 = std::min(width - 1, static_cast<int>(std::ceil(x_max)) + margin);
-    const int y0 = std::max(0, static_cast<int>(std::floor(y_min)) - margin);
-    const int y1 = std::min(height - 1, static_cast<int>(std::ceil(y_max)) + margin);
-    // Value of the bitmap (or -1 outside it) at an image point.
-    auto bitmap_value = [&](double x, double y) -> double {
-      const Eigen::Vector3d q = square_from_image * map.ToScene(x, y).homogeneous();
-      const double bx = q.x() / q.z() + border_start;
-      const double by = q.y() / q.z() + border_start;
-      if (!(bx >= 0 && by >= 0 && bx < total && by < total)) {
-        const bool on_paper = bx >= -paper && by >= -paper && bx < total + paper && by < total + paper;
-        return on_paper ? white : -1.0;
-      }
-      const uint8_t bit = bitmap->buf[static_cast<int>(by) * bitmap->stride + static_cast<int>(bx)];
-      return bit != 0 ? white : black;
-    };
-    const int s = supersample;
-    for (int y = y0; y <= y1; ++y) {
+    Result<TagRaster> raster = MakeTagRaster(fam, family_name, tag, options, map);
+    if (!raster) return raster.error();
+    const PixelBox box = PixelsTouched(*raster, canvas->cols, canvas->rows, options.camera != nullptr);
+    for (int y = box.y0; y <= box.y1; ++y) {
       float* row = canvas->ptr<float>(y);
-      for (int x = x0; x <= x1; ++x) {
-        double first = bitmap_value(x - 0.5 + 0.5 / s, y - 0.5 + 0.5 / s);
-        bool uniform = true;
-        for (int sy = 0; sy < s && uniform; ++sy) {
-          for (int sx = 0; sx < s && uniform; ++sx) {
-            uniform = bitmap_value(x - 0.5 + (sx + 0.5) / s, y - 0.5 + (sy + 0.5) / s) == first;
-          }
-        }
-        if (uniform) {
-          if (first >= 0.0) row[x] = static_cast<float>(first);
-          continue;
-        }
-        double sum = 0.0;
-        for (int i = 0; i < fine_samples; ++i) {
-          const double fx = (i + 0.5) / fine_samples;
-          const double fy = std::fmod((static_cast<double>(i) * fine_step + 0.5) / fine_samples, 1.0);
-          const double v = bitmap_value(x - 0.5 + fx, y - 0.5 + fy);
-          sum += v >= 0.0 ? v : row[x];
-        }
-        row[x] = static_cast<float>(sum / fine_samples);
-      }
+      for (int x = box.x0; x <= box.x1; ++x) row[x] = PixelValue(*raster, x, y, supersample, fine_samples, fine_step, row[x]);
     }
   }
   return Status::Ok();
