@@ -224,52 +224,35 @@ double RmsOf(ceres::Problem* problem) {
   return residuals.empty() ? 0.0 : std::sqrt(2.0 * cost / (static_cast<double>(residuals.size()) / 2.0));
 }
 
-// The learned tags' joint covariance: (J^T J)^-1 restricted to the tags,
-// computed by eliminating the cameras (each camera's 6x6 block is
-// independent of the others: a Schur complement), so its cost grows with
-// the observations, not with the square of the frames.
-void ComputeCovariance(ceres::Problem* problem, const std::vector<FrameState*>& frames, std::map<TagId, MapTag>* tags,
-                       int free_parameters, GlobalAdjustmentSummary* out) {
-  TagCovariance result;
-  std::vector<double*> blocks;
-  std::map<const double*, int> tag_column;  // tag q block -> first column among the tag unknowns
+// The learned tags whose poses the adjustment varied, each with its first
+// column among the tag unknowns (6 per tag, in id order).
+std::map<const double*, int> LearnedTagColumns(ceres::Problem* problem, std::map<TagId, MapTag>* tags,
+                                               std::vector<TagId>* ids) {
+  std::map<const double*, int> tag_column;
   for (auto& [id, tag] : *tags) {
     if (tag.known || tag.anchor || !problem->HasParameterBlock(tag.world_from_tag.data)) continue;
-    tag_column[tag.world_from_tag.data] = 6 * static_cast<int>(result.ids.size());
-    result.ids.push_back(id);
+    tag_column[tag.world_from_tag.data] = 6 * static_cast<int>(ids->size());
+    ids->push_back(id);
   }
-  if (result.ids.empty()) {
-    out->covariance_note = "no learned tags: every target was held fixed";
-    return;
-  }
-  std::vector<FrameState*> cameras;
-  for (FrameState* f : frames) {
-    if (problem->HasParameterBlock(f->cam_from_world.data)) {
-      cameras.push_back(f);
-      blocks.push_back(f->cam_from_world.data);
-    }
-  }
-  const int camera_columns = 6 * static_cast<int>(cameras.size());
-  for (auto& [id, tag] : *tags) {
-    if (tag_column.count(tag.world_from_tag.data)) {
-      blocks.push_back(tag.world_from_tag.data);
-    }
-  }
-  ceres::Problem::EvaluateOptions eval;
-  eval.parameter_blocks = blocks;  // in tangent space: 6 columns per pose
-  double cost = 0;
-  std::vector<double> residuals;
-  ceres::CRSMatrix jacobian;
-  if (!problem->Evaluate(eval, &cost, &residuals, nullptr, &jacobian)) {
-    out->covariance_note = "the adjustment's Jacobian could not be evaluated";
-    return;
-  }
-  const int n_tags = 6 * static_cast<int>(result.ids.size());
-  // Normal equations by blocks: per camera H_cc (6x6) and H_ct (6 x tags),
-  // and H_tt, accumulated row by row of the sparse Jacobian.
-  std::vector<Eigen::Matrix<double, 6, 6>> h_cc(cameras.size(), Eigen::Matrix<double, 6, 6>::Zero());
-  std::vector<std::map<int, Eigen::Matrix<double, 6, 6>>> h_ct(cameras.size());
-  Eigen::MatrixXd h_tt = Eigen::MatrixXd::Zero(n_tags, n_tags);
+  return tag_column;
+}
+
+// The normal equations J^T J by blocks: per camera H_cc (6x6) and its H_ct
+// with each tag it sees (6x6), and H_tt over all the tags' unknowns.
+struct NormalBlocks {
+  std::vector<Eigen::Matrix<double, 6, 6>> h_cc;
+  std::vector<std::map<int, Eigen::Matrix<double, 6, 6>>> h_ct;
+  Eigen::MatrixXd h_tt;
+};
+
+// Accumulated row by row of the sparse Jacobian, whose columns are the
+// cameras' 6 each and then the tags' 6 each.
+NormalBlocks AccumulateNormalBlocks(const ceres::CRSMatrix& jacobian, int cameras, int tag_unknowns) {
+  NormalBlocks n;
+  n.h_cc.assign(static_cast<size_t>(cameras), Eigen::Matrix<double, 6, 6>::Zero());
+  n.h_ct.resize(static_cast<size_t>(cameras));
+  n.h_tt = Eigen::MatrixXd::Zero(tag_unknowns, tag_unknowns);
+  const int camera_columns = 6 * cameras;
   for (int r = 0; r < jacobian.num_rows; ++r) {
     // Entries of one row: at most one camera and one tag.
     int camera = -1, tag = -1;
@@ -284,24 +267,67 @@ void ComputeCovariance(ceres::Problem* problem, const std::vector<FrameState*>& 
         jt((col - camera_columns) % 6) = jacobian.values[k];
       }
     }
-    if (camera >= 0) h_cc[camera] += jc * jc.transpose();
-    if (tag >= 0) h_tt.block<6, 6>(6 * tag, 6 * tag) += jt * jt.transpose();
+    if (camera >= 0) n.h_cc[camera] += jc * jc.transpose();
+    if (tag >= 0) n.h_tt.block<6, 6>(6 * tag, 6 * tag) += jt * jt.transpose();
     if (camera >= 0 && tag >= 0) {
-      auto [it, inserted] = h_ct[camera].try_emplace(tag, Eigen::Matrix<double, 6, 6>::Zero());
+      auto [it, inserted] = n.h_ct[camera].try_emplace(tag, Eigen::Matrix<double, 6, 6>::Zero());
       it->second += jc * jt.transpose();
     }
   }
-  // S = H_tt - sum_c H_tc H_cc^-1 H_ct
-  for (size_t c = 0; c < cameras.size(); ++c) {
-    const Eigen::LDLT<Eigen::Matrix<double, 6, 6>> h_cc_inverse(h_cc[c]);
+  return n;
+}
+
+// The cameras eliminated: S = H_tt - sum_c H_tc H_cc^-1 H_ct, the tags'
+// information with every camera free.
+Eigen::MatrixXd TagSchurComplement(const NormalBlocks& n) {
+  Eigen::MatrixXd s = n.h_tt;
+  for (size_t c = 0; c < n.h_cc.size(); ++c) {
+    const Eigen::LDLT<Eigen::Matrix<double, 6, 6>> h_cc_inverse(n.h_cc[c]);
     if (h_cc_inverse.info() != Eigen::Success) continue;
     std::map<int, Eigen::Matrix<double, 6, 6>> solved;  // H_cc^-1 H_cb
-    for (const auto& [b, h_cb] : h_ct[c]) solved[b] = h_cc_inverse.solve(h_cb);
-    for (const auto& [a, h_ca] : h_ct[c]) {
-      for (const auto& [b, x_b] : solved) h_tt.block<6, 6>(6 * a, 6 * b) -= h_ca.transpose() * x_b;
+    for (const auto& [b, h_cb] : n.h_ct[c]) solved[b] = h_cc_inverse.solve(h_cb);
+    for (const auto& [a, h_ca] : n.h_ct[c]) {
+      for (const auto& [b, x_b] : solved) s.block<6, 6>(6 * a, 6 * b) -= h_ca.transpose() * x_b;
     }
   }
-  const Eigen::LDLT<Eigen::MatrixXd> s_inverse(h_tt);
+  return s;
+}
+
+// The learned tags' joint covariance: (J^T J)^-1 restricted to the tags,
+// computed by eliminating the cameras (each camera's 6x6 block is
+// independent of the others: a Schur complement), so its cost grows with
+// the observations, not with the square of the frames.
+void ComputeCovariance(ceres::Problem* problem, const std::vector<FrameState*>& frames, std::map<TagId, MapTag>* tags,
+                       int free_parameters, GlobalAdjustmentSummary* out) {
+  TagCovariance result;
+  const std::map<const double*, int> tag_column = LearnedTagColumns(problem, tags, &result.ids);
+  if (result.ids.empty()) {
+    out->covariance_note = "no learned tags: every target was held fixed";
+    return;
+  }
+  // The Jacobian's columns: the cameras', then the learned tags' (in tangent
+  // space: 6 per pose).
+  std::vector<double*> blocks;
+  int cameras = 0;
+  for (FrameState* f : frames) {
+    if (!problem->HasParameterBlock(f->cam_from_world.data)) continue;
+    blocks.push_back(f->cam_from_world.data);
+    ++cameras;
+  }
+  for (auto& [id, tag] : *tags) {
+    if (tag_column.count(tag.world_from_tag.data)) blocks.push_back(tag.world_from_tag.data);
+  }
+  ceres::Problem::EvaluateOptions eval;
+  eval.parameter_blocks = blocks;
+  double cost = 0;
+  std::vector<double> residuals;
+  ceres::CRSMatrix jacobian;
+  if (!problem->Evaluate(eval, &cost, &residuals, nullptr, &jacobian)) {
+    out->covariance_note = "the adjustment's Jacobian could not be evaluated";
+    return;
+  }
+  const int n_tags = 6 * static_cast<int>(result.ids.size());
+  const Eigen::LDLT<Eigen::MatrixXd> s_inverse(TagSchurComplement(AccumulateNormalBlocks(jacobian, cameras, n_tags)));
   if (s_inverse.info() != Eigen::Success || s_inverse.vectorD().minCoeff() <= 0) {
     out->covariance_note = "the adjustment's covariance could not be computed (rank deficient)";
     return;
