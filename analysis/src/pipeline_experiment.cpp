@@ -51,6 +51,52 @@ bool TagVisible(const std::pair<SurfacePoint, TagCorners3d>& tag, const Rigid3d&
 enum Metric { kRotation = 0, kPosition = 1, kFailed = 2 };
 constexpr PoseSolver kSolvers[] = {PoseSolver::kEpnp, PoseSolver::kEpnpLm, PoseSolver::kPipeline};
 
+using PlacedTags = std::vector<std::pair<SurfacePoint, TagCorners3d>>;
+
+// The corners of `count` tags drawn from those in view: in the world, in
+// the camera and in the image.
+struct SampledCorners {
+  std::vector<Eigen::Vector3d> world, in_cam;
+  std::vector<Eigen::Vector2d> pixels;
+};
+SampledCorners SampleTagCorners(const PlacedTags& tags, const std::vector<int>& visible, int count,
+                                const Rigid3d& cam_from_world, const CameraModel& camera, std::mt19937& rng) {
+  SampledCorners c;
+  for (int t : SampleWithoutReplacement(visible, count, rng)) {
+    for (const Eigen::Vector3d& corner : tags[t].second) {
+      c.world.push_back(corner);
+      c.in_cam.push_back(cam_from_world * corner);
+      c.pixels.push_back(ProjectToPixel(camera, c.in_cam.back()));
+    }
+  }
+  return c;
+}
+
+// One noise level: the corners with noise (one draw for every solver),
+// each solver's pose against the truth, and the error model's prediction.
+void AddSolverErrors(const SampledCorners& c, double sigma, const Rigid3d& cam_from_world, const CameraModel& camera,
+                     std::mt19937& rng, const Grid& grid, int facet, int x, Accumulator& out) {
+  std::normal_distribution<double> noise(0.0, 1.0);
+  std::vector<Eigen::Vector2d> noisy;
+  for (const Eigen::Vector2d& p : c.pixels) noisy.push_back(p + sigma * Eigen::Vector2d(noise(rng), noise(rng)));
+  for (int s = 0; s < 3; ++s) {
+    const int condition = grid.Index(facet, s, x);
+    const SolvedPose pose = SolvePose(kSolvers[s], c.world, noisy, camera);
+    out.Add(condition, kFailed, pose.ok ? 0.0 : 1.0);
+    if (!pose.ok) continue;
+    const PoseErrors errors = ComparePoses(pose.cam_from_world, cam_from_world);
+    out.Add(condition, kRotation, errors.rotation_deg);
+    out.Add(condition, kPosition, errors.position);
+  }
+  const Result<Eigen::Matrix<double, 6, 6>> covariance =
+      PoseCovariance(c.in_cam, camera.fx, std::vector<double>(c.in_cam.size(), sigma));
+  if (!covariance) return;
+  const PoseErrorRms predicted = PoseErrorFromCovariance(*covariance);
+  const int condition = grid.Index(facet, 3, x);
+  out.Add(condition, kRotation, predicted.rotation_deg);
+  out.Add(condition, kPosition, predicted.position_m);
+}
+
 }  // namespace
 
 ExperimentResult RunPipeline(const ExperimentOptions& options) {
@@ -74,7 +120,7 @@ ExperimentResult RunPipeline(const ExperimentOptions& options) {
   const CameraModel camera = ExperimentCamera();
   const SyntheticObject object = MakeVehicle(VehicleKind::kBradleyLike, ItemSeed(options.seed, 100, 0));
   std::mt19937 tag_rng(ItemSeed(options.seed, 6, 0));
-  const auto tags = PlaceTags(object, tag_rng);
+  const PlacedTags tags = PlaceTags(object, tag_rng);
   const int total = static_cast<int>(object.cameras.size());
   const int used = std::min(options.trials, total);
   const Accumulator values = ParallelSweep(used, grid.Conditions(), 3, options.threads, [&](int item, Accumulator& out) {
@@ -85,39 +131,13 @@ ExperimentResult RunPipeline(const ExperimentOptions& options) {
     for (int t = 0; t < kTagSites; ++t) {
       if (TagVisible(tags[t], cam_from_world, camera)) visible.push_back(t);
     }
-    std::normal_distribution<double> noise(0.0, 1.0);
     for (size_t x = 0; x < grid.xs.size(); ++x) {
       const int count = static_cast<int>(grid.xs[x]);
       if (count > static_cast<int>(visible.size())) continue;
-      std::vector<Eigen::Vector3d> corners, corners_in_cam;
-      std::vector<Eigen::Vector2d> pixels;
-      for (int t : SampleWithoutReplacement(visible, count, rng)) {
-        for (const Eigen::Vector3d& corner : tags[t].second) {
-          corners.push_back(corner);
-          corners_in_cam.push_back(cam_from_world * corner);
-          pixels.push_back(ProjectToPixel(camera, corners_in_cam.back()));
-        }
-      }
+      const SampledCorners corners = SampleTagCorners(tags, visible, count, cam_from_world, camera, rng);
       for (size_t f = 0; f < sigmas.size(); ++f) {
-        std::vector<Eigen::Vector2d> noisy;
-        for (const Eigen::Vector2d& p : pixels) noisy.push_back(p + sigmas[f] * Eigen::Vector2d(noise(rng), noise(rng)));
-        for (int s = 0; s < 3; ++s) {
-          const int condition = grid.Index(static_cast<int>(f), s, static_cast<int>(x));
-          const SolvedPose pose = SolvePose(kSolvers[s], corners, noisy, camera);
-          out.Add(condition, kFailed, pose.ok ? 0.0 : 1.0);
-          if (!pose.ok) continue;
-          const PoseErrors errors = ComparePoses(pose.cam_from_world, cam_from_world);
-          out.Add(condition, kRotation, errors.rotation_deg);
-          out.Add(condition, kPosition, errors.position);
-        }
-        const Result<Eigen::Matrix<double, 6, 6>> covariance =
-            PoseCovariance(corners_in_cam, camera.fx, std::vector<double>(corners_in_cam.size(), sigmas[f]));
-        if (covariance) {
-          const PoseErrorRms predicted = PoseErrorFromCovariance(*covariance);
-          const int condition = grid.Index(static_cast<int>(f), 3, static_cast<int>(x));
-          out.Add(condition, kRotation, predicted.rotation_deg);
-          out.Add(condition, kPosition, predicted.position_m);
-        }
+        AddSolverErrors(corners, sigmas[f], cam_from_world, camera, rng, grid, static_cast<int>(f), static_cast<int>(x),
+                        out);
       }
     }
   });
