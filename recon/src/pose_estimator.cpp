@@ -232,6 +232,10 @@ Status PoseEstimatorOptions::Check() const {
 Rigid3d RefinePose(const std::vector<Eigen::Vector3d>& points_in_world, const std::vector<Eigen::Vector2d>& normalized,
                    const std::vector<int>& use, double fx, double fy, const Rigid3d& initial, double huber_px,
                    int max_iterations) {
+  // A solver's degenerate sample can hand back a NaN rotation; Ceres would
+  // abort on its manifold's Jacobian. Returned as it came, it has no
+  // inliers and fails the candidate's checks.
+  if (!initial.rotation.coeffs().allFinite() || !initial.translation.allFinite()) return initial;
   PoseParams pose(initial);
   ceres::Problem::Options problem_options;
   problem_options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;

@@ -1,6 +1,7 @@
 #include "tagsfm/recon/pose_estimator.h"
 
 #include <algorithm>
+#include <limits>
 #include <random>
 
 #include <gtest/gtest.h>
@@ -56,6 +57,30 @@ TEST(PoseEstimator, RecoversTheTruePoseWithinNoiseBounds) {
   ASSERT_GE(rotation_errors.size(), 20u);
   std::nth_element(rotation_errors.begin(), rotation_errors.begin() + rotation_errors.size() / 2, rotation_errors.end());
   EXPECT_LT(rotation_errors[rotation_errors.size() / 2], 0.04);
+}
+
+// A degenerate solver sample can produce a NaN rotation (seen from EPnP on a
+// rendered walk, 2026-12-04): refining it used to abort the process inside
+// Ceres (its manifold's Jacobian check). It must come back unchanged.
+TEST(PoseEstimator, RefiningANonFinitePoseReturnsItInsteadOfAborting) {
+  synth::SyntheticSceneOptions options;
+  options.frames = 3;
+  options.noise_px = 0.0;
+  const synth::SyntheticScene scene = synth::MakeSyntheticBoxScene(options);
+  const Correspondences c = FromFrame(scene, 1);
+  ASSERT_GE(c.points.size(), 8u);
+  std::vector<int> all(c.points.size());
+  for (size_t i = 0; i < all.size(); ++i) all[i] = static_cast<int>(i);
+  Rigid3d nan_rotation = scene.cam_from_world[1];
+  nan_rotation.rotation.coeffs().setConstant(std::numeric_limits<double>::quiet_NaN());
+  const Rigid3d refined = RefinePose(c.points, c.normalized, all, 1000, 1000, nan_rotation, 1.0, 10);
+  EXPECT_FALSE(refined.rotation.coeffs().allFinite());
+  Rigid3d nan_translation = scene.cam_from_world[1];
+  nan_translation.translation.x() = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_FALSE(RefinePose(c.points, c.normalized, all, 1000, 1000, nan_translation, 1.0, 10).translation.allFinite());
+  // A finite start is still refined to the truth (noise-free scene).
+  const Rigid3d good = RefinePose(c.points, c.normalized, all, 1000, 1000, scene.cam_from_world[1], 1.0, 10);
+  EXPECT_LT((good.Center() - scene.cam_from_world[1].Center()).norm(), 1e-6);
 }
 
 TEST(PoseEstimator, ErrorGrowsWithNoise) {

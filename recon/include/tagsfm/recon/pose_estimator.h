@@ -73,7 +73,8 @@ PoseResult EstimatePose(const std::vector<Eigen::Vector3d>& points_in_world,
                         const std::vector<Eigen::Vector2d>& normalized, double fx, double fy,
                         const std::optional<Rigid3d>& previous, const PoseEstimatorOptions& options);
 
-// Refines a pose on fixed points with a Huber loss (LM); returns the refined pose.
+// Refines a pose on fixed points with a Huber loss (LM); returns the refined
+// pose (a non-finite `initial` comes back unchanged).
 Rigid3d RefinePose(const std::vector<Eigen::Vector3d>& points_in_world, const std::vector<Eigen::Vector2d>& normalized,
                    const std::vector<int>& use, double fx, double fy, const Rigid3d& initial, double huber_px,
                    int max_iterations);
