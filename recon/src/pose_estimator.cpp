@@ -360,9 +360,12 @@ std::vector<Rigid3d> TagPoseCandidates(const std::array<Eigen::Vector2d, 4>& nor
   for (size_t i = 0; i < rvecs.size(); ++i) {
     const Rigid3d cam_from_turned = FromRvecTvec(rvecs[i], tvecs[i]);
     Rigid3d pose(cam_from_turned.rotation * turned_from_tag, cam_from_turned.translation);
-    if (!pose.translation.allFinite() || !(pose.translation.z() > 0)) continue;
+    if (!pose.rotation.coeffs().allFinite() || !pose.translation.allFinite() || !(pose.translation.z() > 0)) continue;
     const double error = RefineTagPose(corners_in_tag, normalized, &pose);
-    if (std::isfinite(error) && pose.translation.allFinite() && pose.translation.z() > 0) refined.emplace_back(error, pose);
+    if (std::isfinite(error) && pose.rotation.coeffs().allFinite() && pose.translation.allFinite() &&
+        pose.translation.z() > 0) {
+      refined.emplace_back(error, pose);
+    }
   }
   std::stable_sort(refined.begin(), refined.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
   std::vector<Rigid3d> out;
