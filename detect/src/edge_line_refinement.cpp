@@ -105,6 +105,22 @@ constexpr double kReachSigmas = 5.0;
 // Below this shear the rows' blur is taken as separable (see ShearTerms).
 constexpr double kMinShear = 0.01;
 
+// The bivariate normal's CDF with correlation rho, less the product of its
+// marginals, over phi(x) phi(y), by the tetrachoric series to rho^4:
+// Phi2(x, y; rho) = Phi(x) Phi(y) + phi(x) phi(y) q, q = rho + rho^2 xy/2 +
+// rho^3 He2(x) He2(y)/6 + rho^4 He3(x) He3(y)/24 (He: Hermite
+// polynomials); dq_dy its derivative in y.
+struct Tetrachoric {
+  double q = 0.0;
+  double dq_dy = 0.0;
+};
+Tetrachoric TetrachoricSeries(double x, double y, double rho) {
+  const double rho2 = rho * rho, rho3 = rho2 * rho, rho4 = rho2 * rho2;
+  const double he2x = x * x - 1.0, he2y = y * y - 1.0, he3x = x * x * x - 3.0 * x, he3y = y * y * y - 3.0 * y;
+  return {rho + rho2 * x * y / 2 + rho3 * he2x * he2y / 6 + rho4 * he3x * he3y / 24,
+          rho2 * x / 2 + rho3 * he2x * 2 * y / 6 + rho4 * he3x * (3 * y * y - 3) / 24};
+}
+
 // One pixel of the band around an edge.
 struct BandPixel {
   Eigen::Vector2d position;  // pixel centre, image coordinates
@@ -185,64 +201,9 @@ class EdgeModel {
     const double d = normal.dot(p.position) - e.rho;
     // Multiplications by 1/sigma, not ~10 divisions per pixel.
     const double inv_s = 1.0 / e.sigma;
-    const double a = d * inv_s;
-    // Near the band's ends the adjacent edges' outside shade reaches in too:
-    // the border's shade is that of the blurred corner region, the product
-    // of the three half-planes' blurred indicators (exact for a right-angled
-    // corner, since a Gaussian is separable along any pair of orthogonal
-    // axes), corrected below where the corner is not a right angle.
-    double inside_adjacent = 1.0, dinside_ds = 0.0;
-    for (double beyond : {p.beyond_prev, p.beyond_next}) {
-      const double c = beyond * inv_s;
-      if (c < -kReachSigmas) continue;
-      const CdfPdf n = Normal(-c);
-      dinside_ds = dinside_ds * n.cdf + inside_adjacent * n.pdf * c * inv_s;
-      inside_adjacent *= n.cdf;
-    }
-    const CdfPdf outer = Normal(-a);
-    double g = 1.0 - outer.cdf * inside_adjacent;
-    double dg_dd = outer.pdf * inv_s * inside_adjacent;
-    double dg_ds = -a * outer.pdf * inv_s * inside_adjacent - outer.cdf * dinside_ds;
-    // Where the corner is not a right angle the two half-planes' blurs are
-    // correlated: the tetrachoric correction of each pair (see ShearTerms).
-    const std::array<double, 2> beyond = {p.beyond_prev, p.beyond_next};
-    for (int k = 0; k < 2; ++k) {
-      const double rho = adjacent_shear[k];
-      const double c = beyond[k] * inv_s;
-      if (c < -kReachSigmas || std::abs(rho) <= kMinShear) continue;
-      const double other_c = beyond[1 - k] * inv_s;
-      const double other = other_c < -kReachSigmas ? 1.0 : Normal(-other_c).cdf;
-      const double rho2 = rho * rho;
-      const double he2a = a * a - 1.0, he2c = c * c - 1.0, he3a = a * a * a - 3.0 * a, he3c = c * c * c - 3.0 * c;
-      const double q = rho + rho2 * a * c / 2 + rho2 * rho * he2a * he2c / 6 + rho2 * rho2 * he3a * he3c / 24;
-      const double dq_da = rho2 * c / 2 + rho2 * rho * 2 * a * he2c / 6 + rho2 * rho2 * (3 * a * a - 3) * he3c / 24;
-      const double phi_c = Normal(c).pdf;
-      g -= outer.pdf * phi_c * q * other;
-      dg_dd -= outer.pdf * phi_c * (dq_da - a * q) * other * inv_s;
-    }
-    // Row r's inner boundary is row r + 1's outer one: its look-up is shared
-    // (one of ~5 per pixel saved where both rows show).
-    CdfPdf shared{};
-    int shared_row = -1;
-    for (int r = 0; r < kRows; ++r) {
-      const double b0 = (d + (r + 1) * p.inner_px) * inv_s;  // the row's outer and inner boundaries
-      const double b1 = (d + (r + 2) * p.inner_px) * inv_s;
-      if (b0 > kReachSigmas || b1 < -kReachSigmas) continue;  // the row's blur does not reach this pixel
-      const double shade = Shade(r, shade_sigma, &p);
-      if (shade == 0.0) continue;
-      const CdfPdf n0 = shared_row == r ? shared : Normal(-b0), n1 = Normal(-b1);
-      shared = n1;
-      shared_row = r + 1;
-      g += shade * (n0.cdf - n1.cdf);
-      dg_dd += shade * (n1.pdf - n0.pdf) * inv_s;
-      dg_ds += shade * (b0 * n0.pdf - b1 * n1.pdf) * inv_s;
-      if (std::abs(p.shear) > kMinShear) {
-        double value = 0.0, slope = 0.0;
-        ShearTerms(r, shade_sigma / p.along_px, p, b0, n0.pdf, b1, n1.pdf, &value, &slope);
-        g += value;
-        dg_dd += slope * inv_s;
-      }
-    }
+    Shading s;
+    AddBorderAndCorners(p, d * inv_s, inv_s, adjacent_shear, &s);
+    AddRowsBehind(p, d, inv_s, shade_sigma, &s);
     // Beyond the white ring: its own level, blurred in across the ring's
     // outer line. That line is fixed during the fit, and the term leaves the
     // line's and the blur's derivatives alone: what lies beyond (texture,
@@ -252,14 +213,14 @@ class EdgeModel {
     const double ring = c > -kReachSigmas ? Normal(c).cdf : 0.0;
     const double contrast = e.outside - e.border;
     if (jacobian != nullptr) {
-      (*jacobian)(0) = contrast * dg_dd * tangent.dot(p.position);
-      (*jacobian)(1) = -contrast * dg_dd;
-      (*jacobian)(2) = 1.0 - g;
-      (*jacobian)(3) = g - ring;
-      (*jacobian)(4) = contrast * dg_ds;
+      (*jacobian)(0) = contrast * s.dg_dd * tangent.dot(p.position);
+      (*jacobian)(1) = -contrast * s.dg_dd;
+      (*jacobian)(2) = 1.0 - s.g;
+      (*jacobian)(3) = s.g - ring;
+      (*jacobian)(4) = contrast * s.dg_ds;
       (*jacobian)(5) = ring;
     }
-    return e.border + contrast * g + (e.beyond - e.outside) * ring;
+    return e.border + contrast * s.g + (e.beyond - e.outside) * ring;
   }
 
   // The pixel's shade from row r for blur `sigma`. It changes little with
@@ -278,39 +239,106 @@ class EdgeModel {
     return p->shade[r];
   }
 
+  // g, the outside's share of a pixel's grey level, and its derivatives in
+  // the edge's offset d and in the blur.
+  struct Shading {
+    double g = 0.0, dg_dd = 0.0, dg_ds = 0.0;
+  };
+
+  // The outer step at a = d / sigma. Near the band's ends the adjacent
+  // edges' outside shade reaches in too: the border's shade is that of the
+  // blurred corner region, the product of the three half-planes' blurred
+  // indicators (exact for a right-angled corner, since a Gaussian is
+  // separable along any pair of orthogonal axes); where the corner is not a
+  // right angle the two half-planes' blurs are correlated, and each pair
+  // gets the tetrachoric correction (see ShearTerms).
+  static void AddBorderAndCorners(const BandPixel& p, double a, double inv_s, const std::array<double, 2>& adjacent_shear,
+                                  Shading* s) {
+    double inside_adjacent = 1.0, dinside_ds = 0.0;
+    for (double beyond : {p.beyond_prev, p.beyond_next}) {
+      const double c = beyond * inv_s;
+      if (c < -kReachSigmas) continue;
+      const CdfPdf n = Normal(-c);
+      dinside_ds = dinside_ds * n.cdf + inside_adjacent * n.pdf * c * inv_s;
+      inside_adjacent *= n.cdf;
+    }
+    const CdfPdf outer = Normal(-a);
+    s->g += 1.0 - outer.cdf * inside_adjacent;
+    s->dg_dd += outer.pdf * inv_s * inside_adjacent;
+    s->dg_ds += -a * outer.pdf * inv_s * inside_adjacent - outer.cdf * dinside_ds;
+    const std::array<double, 2> beyond = {p.beyond_prev, p.beyond_next};
+    for (int k = 0; k < 2; ++k) {
+      const double rho = adjacent_shear[k];
+      const double c = beyond[k] * inv_s;
+      if (c < -kReachSigmas || std::abs(rho) <= kMinShear) continue;
+      const double other_c = beyond[1 - k] * inv_s;
+      const double other = other_c < -kReachSigmas ? 1.0 : Normal(-other_c).cdf;
+      const Tetrachoric t = TetrachoricSeries(c, a, rho);
+      const double phi_c = Normal(c).pdf;
+      s->g -= outer.pdf * phi_c * t.q * other;
+      s->dg_dd -= outer.pdf * phi_c * (t.dq_dy - a * t.q) * other * inv_s;
+    }
+  }
+
+  // The modules of the rows behind the border that have the outside's
+  // shade, each blurred across and along the edge.
+  void AddRowsBehind(BandPixel& p, double d, double inv_s, double shade_sigma, Shading* s) const {
+    // Row r's inner boundary is row r + 1's outer one: its look-up is shared
+    // (one of ~5 per pixel saved where both rows show).
+    CdfPdf shared{};
+    int shared_row = -1;
+    for (int r = 0; r < kRows; ++r) {
+      const double b0 = (d + (r + 1) * p.inner_px) * inv_s;  // the row's outer and inner boundaries
+      const double b1 = (d + (r + 2) * p.inner_px) * inv_s;
+      if (b0 > kReachSigmas || b1 < -kReachSigmas) continue;  // the row's blur does not reach this pixel
+      const double shade = Shade(r, shade_sigma, &p);
+      if (shade == 0.0) continue;
+      const CdfPdf n0 = shared_row == r ? shared : Normal(-b0), n1 = Normal(-b1);
+      shared = n1;
+      shared_row = r + 1;
+      s->g += shade * (n0.cdf - n1.cdf);
+      s->dg_dd += shade * (n1.pdf - n0.pdf) * inv_s;
+      s->dg_ds += shade * (b0 * n0.pdf - b1 * n1.pdf) * inv_s;
+      if (std::abs(p.shear) > kMinShear) {
+        double value = 0.0, slope = 0.0;
+        ShearTerms(r, shade_sigma / p.along_px, p, b0, n0.pdf, b1, n1.pdf, &value, &slope);
+        s->g += value;
+        s->dg_dd += slope * inv_s;
+      }
+    }
+  }
+
   // Row r's cells are blurred above as (blurred along) x (blurred across),
   // exact only where the module boundaries meet the edge at right angles.
   // On a tag tilted about an axis that is not along its edges they are
-  // slanted (shear, the cosine between the two normals): the blur of a
-  // cell is then the bivariate normal probability of a parallelogram. Its
-  // difference from the product, per shade step j and across boundary b,
-  // from the tetrachoric series to rho^4:
-  //   C(a, b) = phi(a) phi(b) [-r - r^2 ab/2 - r^3 (a^2-1)(b^2-1)/6 - r^4 He3(a) He3(b)/24]
-  // with a = (u - j) / sigma along, b the boundary's blurred distance.
-  // Without it, corners on 24 px tags tilted 50-60 degrees about a
-  // diagonal came out 0.009-0.022 px inward at 1 px blur, noise-free
-  // (about an edge: 0.001).
+  // slanted (shear, the cosine rho between the two normals): the blur of a
+  // cell is then the bivariate normal probability of a parallelogram,
+  // whose difference from the product, per shade step j and across
+  // boundary b, is -phi(a) phi(b) TetrachoricSeries(a, b, rho), with
+  // a = (u - j) / sigma along and b the boundary's blurred distance (the
+  // minus: the cell lies beyond its step in u but short of its boundary in
+  // d, one variable taken with its sign flipped, which flips every term of
+  // the series). Without
+  // it, corners on 24 px tags tilted 50-60 degrees about a diagonal came out
+  // 0.009-0.022 px inward at 1 px blur, noise-free (about an edge: 0.001).
   // `value`: the term to add to g; `slope`: its derivative in b (the
   // across distance), to be divided by sigma.
   void ShearTerms(int r, double sigma_modules, const BandPixel& p, double b0, double pdf0, double b1, double pdf1,
                   double* value, double* slope) const {
-    const double rho = p.shear, rho2 = rho * rho, rho3 = rho2 * rho, rho4 = rho2 * rho2;
     const double reach = kReachSigmas * sigma_modules, inv_sigma = 1.0 / sigma_modules;
     for (const auto& [j, step] : rows_[r].steps) {
       if (j < p.u - reach) continue;
       if (j > p.u + reach) break;
       const double a = (p.u - j) * inv_sigma;
       const double phi_a = Normal(a).pdf;
-      const double he2a = a * a - 1.0, he3a = a * a * a - 3.0 * a;
       for (const auto& [b, pdf, sign] : {std::tuple<double, double, double>{b0, pdf0, 1.0}, {b1, pdf1, -1.0}}) {
-        const double he2b = b * b - 1.0, he3b = b * b * b - 3.0 * b;
-        const double q = -rho - rho2 * a * b / 2 - rho3 * he2a * he2b / 6 - rho4 * he3a * he3b / 24;
-        const double dq_db = -rho2 * a / 2 - rho3 * he2a * 2 * b / 6 - rho4 * he3a * (3 * b * b - 3) / 24;
-        *value += sign * step * phi_a * pdf * q;
-        *slope += sign * step * phi_a * pdf * (dq_db - b * q);
+        const Tetrachoric t = TetrachoricSeries(a, b, p.shear);
+        *value -= sign * step * phi_a * pdf * t.q;
+        *slope -= sign * step * phi_a * pdf * (t.dq_dy - b * t.q);
       }
     }
   }
+
 
  private:
   // A row's modules (1: the outside's shade) and the boundaries j (between
