@@ -8,7 +8,6 @@
 #include <atomic>
 #include <cmath>
 #include <filesystem>
-#include <limits>
 #include <string>
 #include <vector>
 
@@ -16,6 +15,7 @@
 
 #include "experiment_common.h"
 #include "tagsfm/analysis/experiments.h"
+#include "tagsfm/analysis/statistics.h"
 #include "tagsfm/capture/recording.h"
 #include "tagsfm/eval/scene_geometry.h"
 #include "tagsfm/pipeline/drivers.h"
@@ -26,12 +26,6 @@ namespace tagsfm::analysis {
 namespace {
 
 enum Metric { kErrorMedian = 0, kSigmaMedian = 1, kWithinTwoSigma = 2, kPoints = 3, kMetrics = 4 };
-
-double Median(std::vector<double> values) {
-  const size_t half = values.size() / 2;
-  std::nth_element(values.begin(), values.begin() + static_cast<long>(half), values.end());
-  return values[half];
-}
 
 // A rendered recording in a folder of its own, removed when done.
 class ScratchDir {
@@ -50,21 +44,6 @@ class ScratchDir {
  private:
   std::filesystem::path path_;
 };
-
-// The true surface nearest `point`, and that distance.
-const eval::SurfaceRectangle* NearestSurface(const std::vector<eval::SurfaceRectangle>& surfaces,
-                                             const Eigen::Vector3d& point, double* distance) {
-  const eval::SurfaceRectangle* nearest = nullptr;
-  *distance = std::numeric_limits<double>::infinity();
-  for (const eval::SurfaceRectangle& s : surfaces) {
-    const double d = s.DistanceTo(point);
-    if (d < *distance) {
-      *distance = d;
-      nearest = &s;
-    }
-  }
-  return nearest;
-}
 
 }  // namespace
 
@@ -93,7 +72,7 @@ Result<HybridWalkFigures> MeasureHybridWalk(const synth::SynthOptions& render) {
   int within = 0;
   for (const FeaturePoint& p : result->reconstruction.feature_points) {
     double distance = 0;
-    const eval::SurfaceRectangle* surface = NearestSurface(*surfaces, p.position, &distance);
+    const eval::SurfaceRectangle* surface = eval::NearestSurface(*surfaces, p.position, &distance);
     if (surface == nullptr) continue;
     const Eigen::Vector3d normal = surface->edge_u.cross(surface->edge_v).normalized();
     const double sigma = std::sqrt(std::max(0.0, normal.dot(p.covariance * normal)));
@@ -105,8 +84,8 @@ Result<HybridWalkFigures> MeasureHybridWalk(const synth::SynthOptions& render) {
   HybridWalkFigures figures;
   figures.points = static_cast<int>(errors.size());
   if (errors.empty()) return figures;
-  figures.error_median_m = Median(errors);
-  figures.sigma_median_m = Median(sigmas);
+  figures.error_median_m = Summarize(errors).median;
+  figures.sigma_median_m = Summarize(sigmas).median;
   figures.within_two_sigma = static_cast<double>(within) / static_cast<double>(errors.size());
   return figures;
 }

@@ -16,10 +16,24 @@ double SurfaceRectangle::DistanceTo(const Eigen::Vector3d& point) const {
   return (origin + a * edge_u + b * edge_v - point).norm();
 }
 
+const SurfaceRectangle* NearestSurface(const std::vector<SurfaceRectangle>& surfaces, const Eigen::Vector3d& point,
+                                       double* distance) {
+  const SurfaceRectangle* nearest = nullptr;
+  *distance = std::numeric_limits<double>::infinity();
+  for (const SurfaceRectangle& s : surfaces) {
+    const double d = s.DistanceTo(point);
+    if (d < *distance) {
+      *distance = d;
+      nearest = &s;
+    }
+  }
+  return nearest;
+}
+
 double DistanceToSurfaces(const std::vector<SurfaceRectangle>& surfaces, const Eigen::Vector3d& point) {
-  double best = std::numeric_limits<double>::infinity();
-  for (const SurfaceRectangle& s : surfaces) best = std::min(best, s.DistanceTo(point));
-  return best;
+  double distance = 0.0;
+  NearestSurface(surfaces, point, &distance);
+  return distance;
 }
 
 Result<std::vector<SurfaceRectangle>> ReadSceneYaml(const std::filesystem::path& path) {

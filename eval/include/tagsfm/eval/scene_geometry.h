@@ -20,6 +20,11 @@ struct SurfaceRectangle {
 
 Result<std::vector<SurfaceRectangle>> ReadSceneYaml(const std::filesystem::path& path);
 
+// The rectangle nearest `point` (null when there are none) and, in
+// `distance`, how far it is (infinity when there are none).
+const SurfaceRectangle* NearestSurface(const std::vector<SurfaceRectangle>& surfaces, const Eigen::Vector3d& point,
+                                       double* distance);
+
 // Distance to the nearest rectangle (infinity when there are none).
 double DistanceToSurfaces(const std::vector<SurfaceRectangle>& surfaces, const Eigen::Vector3d& point);
 
