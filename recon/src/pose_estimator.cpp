@@ -18,6 +18,10 @@
 namespace tagsfm {
 namespace {
 
+// Rotation and translation both finite: a solver's degenerate sample can
+// give a NaN rotation with a finite translation.
+bool IsFinite(const Rigid3d& pose) { return pose.rotation.coeffs().allFinite() && pose.translation.allFinite(); }
+
 Rigid3d FromRvecTvec(const cv::Mat& rvec, const cv::Mat& tvec) {
   cv::Mat rotation_cv;
   cv::Rodrigues(rvec, rotation_cv);
@@ -235,7 +239,7 @@ Rigid3d RefinePose(const std::vector<Eigen::Vector3d>& points_in_world, const st
   // A solver's degenerate sample can hand back a NaN rotation; Ceres would
   // abort on its manifold's Jacobian. Returned as it came, it has no
   // inliers and fails the candidate's checks.
-  if (!initial.rotation.coeffs().allFinite() || !initial.translation.allFinite()) return initial;
+  if (!IsFinite(initial)) return initial;
   PoseParams pose(initial);
   ceres::Problem::Options problem_options;
   problem_options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
@@ -360,12 +364,9 @@ std::vector<Rigid3d> TagPoseCandidates(const std::array<Eigen::Vector2d, 4>& nor
   for (size_t i = 0; i < rvecs.size(); ++i) {
     const Rigid3d cam_from_turned = FromRvecTvec(rvecs[i], tvecs[i]);
     Rigid3d pose(cam_from_turned.rotation * turned_from_tag, cam_from_turned.translation);
-    if (!pose.rotation.coeffs().allFinite() || !pose.translation.allFinite() || !(pose.translation.z() > 0)) continue;
+    if (!IsFinite(pose) || !(pose.translation.z() > 0)) continue;
     const double error = RefineTagPose(corners_in_tag, normalized, &pose);
-    if (std::isfinite(error) && pose.rotation.coeffs().allFinite() && pose.translation.allFinite() &&
-        pose.translation.z() > 0) {
-      refined.emplace_back(error, pose);
-    }
+    if (std::isfinite(error) && IsFinite(pose) && pose.translation.z() > 0) refined.emplace_back(error, pose);
   }
   std::stable_sort(refined.begin(), refined.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
   std::vector<Rigid3d> out;
