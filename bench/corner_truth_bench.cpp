@@ -14,6 +14,7 @@
 #include <cstring>
 #include <iostream>
 #include <map>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -114,6 +115,84 @@ nlohmann::json BinsJson(const std::vector<Bin>& bins, const std::vector<double>&
   return out;
 }
 
+// A tag's true corners in the camera and in the image; none when a corner
+// is behind (or at) the camera.
+struct TrueTag {
+  std::array<Eigen::Vector3d, 4> in_cam;
+  QuadCorners px;
+};
+std::optional<TrueTag> ProjectTruth(const Rigid3d& cam_from_world, const std::array<Eigen::Vector3d, 4>& corners,
+                                    const CameraModel& camera) {
+  TrueTag t;
+  for (int k = 0; k < 4; ++k) {
+    t.in_cam[k] = cam_from_world * corners[k];
+    if (!(t.in_cam[k].z() > 0.05)) return std::nullopt;
+    t.px[k] = camera.Project(t.in_cam[k]);
+  }
+  return t;
+}
+
+// What the recording's detections add up to.
+struct Tally {
+  std::vector<Bin> by_module = std::vector<Bin>(kBinEdges.size() - 1);
+  std::vector<Bin> by_angle = std::vector<Bin>(kAngleEdges.size() - 1);
+  std::vector<Bin> by_across = std::vector<Bin>(kAcrossEdges.size() - 1);
+  int found = 0, wrong = 0;
+};
+
+// One detected tag against its truth: each corner's error, its offset
+// along the outward diagonal and its side's length error, binned by module
+// size and view angle; each edge's offset outside its true line, binned by
+// one module's width across it (the border's image width: what the blur
+// meets).
+void AddTag(const TagDetection& det, const TrueTag& truth, const CameraModel& camera, Tally* tally) {
+  const QuadCorners& px = truth.px;
+  const Eigen::Vector2d centre = 0.25 * (px[0] + px[1] + px[2] + px[3]);
+  double side_sum = 0;
+  Bin one;
+  for (int k = 0; k < 4; ++k) {
+    const Eigen::Vector2d offset = det.corners[k] - px[k];
+    const double true_side = (px[(k + 1) % 4] - px[k]).norm();
+    side_sum += true_side;
+    one.errors.push_back(offset.norm());
+    one.outward.push_back(offset.dot((px[k] - centre).normalized()));
+    one.side_ratio.push_back((det.corners[(k + 1) % 4] - det.corners[k]).norm() / true_side - 1);
+  }
+  tally->by_module[BinOf(kBinEdges, side_sum / 4 / 8)].Add(one);
+  tally->by_angle[BinOf(kAngleEdges, ViewAngleDeg(truth.in_cam))].Add(one);
+  const Eigen::Vector3d centre3 = 0.25 * (truth.in_cam[0] + truth.in_cam[1] + truth.in_cam[2] + truth.in_cam[3]);
+  for (int k = 0; k < 4; ++k) {
+    const Eigen::Vector2d a = px[k], b = px[(k + 1) % 4];
+    Eigen::Vector2d normal(-(b - a).y(), (b - a).x());
+    normal.normalize();
+    if (normal.dot(a - centre) < 0) normal = -normal;
+    const Eigen::Vector3d mid3 = 0.5 * (truth.in_cam[k] + truth.in_cam[(k + 1) % 4]);
+    const Eigen::Vector2d inward_px = camera.Project(mid3 + 0.25 * (centre3 - mid3));
+    const double across = normal.dot(camera.Project(mid3) - inward_px);
+    Bin edge;
+    edge.edge_outward.push_back(0.5 * (normal.dot(det.corners[k] - a) + normal.dot(det.corners[(k + 1) % 4] - b)));
+    tally->by_across[BinOf(kAcrossEdges, across)].Add(edge);
+  }
+}
+
+nlohmann::json TallyJson(const Tally& tally) {
+  nlohmann::json out = {{"tags", tally.found}, {"wrong_ids", tally.wrong}};
+  Bin all;
+  for (const Bin& bin : tally.by_module) all.Add(bin);
+  out["by_module"] = BinsJson(tally.by_module, kBinEdges, "px");
+  out["by_view_angle"] = BinsJson(tally.by_angle, kAngleEdges, "deg");
+  nlohmann::json across = nlohmann::json::object();
+  for (size_t b = 0; b < tally.by_across.size(); ++b) {
+    if (tally.by_across[b].edge_outward.empty()) continue;
+    char name[64];
+    std::snprintf(name, sizeof(name), "%g_to_%g_px", kAcrossEdges[b], std::min(kAcrossEdges[b + 1], 99.0));
+    across[name] = {{"edges", tally.by_across[b].edge_outward.size()}, {"outward_px", Mean(tally.by_across[b].edge_outward)}};
+  }
+  out["edges_by_module_across"] = across;
+  out["all"] = BinJson(all);
+  return out;
+}
+
 nlohmann::json Measure(const fs::path& dir, bool tracking, bool with_camera) {
   auto reader = RecordingReader::Open(dir);
   if (!reader) return {{"error", reader.error().message}};
@@ -127,8 +206,7 @@ nlohmann::json Measure(const fs::path& dir, bool tracking, bool with_camera) {
   auto detector = TagDetector::Create(options);
   auto tracker = TagTracker::Create(options, TagTrackerOptions{});
   if (!detector || !tracker) return {{"error", "detector"}};
-  std::vector<Bin> bins(kBinEdges.size() - 1), by_angle(kAngleEdges.size() - 1), by_across(kAcrossEdges.size() - 1);
-  int missing = 0, wrong = 0, found = 0;
+  Tally tally;
   for (size_t i = 0; i < reader->entries().size(); ++i) {
     auto frame = reader->LoadFrame(i);
     if (!frame) return {{"error", frame.error().message}};
@@ -139,67 +217,19 @@ nlohmann::json Measure(const fs::path& dir, bool tracking, bool with_camera) {
     for (const TagDetection& det : detections->tags) {
       const auto truth = targets->find(det.id);
       if (truth == targets->end()) {
-        ++wrong;
+        ++tally.wrong;
         continue;
       }
-      QuadCorners true_px;
-      std::array<Eigen::Vector3d, 4> in_cam;
-      bool in_front = true;
-      for (int k = 0; k < 4; ++k) {
-        in_cam[k] = pose->second * truth->second[k];
-        in_front = in_front && in_cam[k].z() > 0.05;
-        true_px[k] = in_front ? camera.Project(in_cam[k]) : Eigen::Vector2d::Zero();
-      }
-      if (!in_front) {
-        ++missing;
-        continue;
-      }
-      ++found;
-      double side_sum = 0;
-      for (int k = 0; k < 4; ++k) side_sum += (true_px[(k + 1) % 4] - true_px[k]).norm();
-      Bin one;
-      const Eigen::Vector2d centre = 0.25 * (true_px[0] + true_px[1] + true_px[2] + true_px[3]);
-      for (int k = 0; k < 4; ++k) {
-        const Eigen::Vector2d offset = det.corners[k] - true_px[k];
-        one.errors.push_back(offset.norm());
-        one.outward.push_back(offset.dot((true_px[k] - centre).normalized()));
-        const double true_side = (true_px[(k + 1) % 4] - true_px[k]).norm();
-        one.side_ratio.push_back((det.corners[(k + 1) % 4] - det.corners[k]).norm() / true_side - 1);
-      }
-      // Each edge: its offset outside the true line, binned by one module's
-      // width across it (the border's image width: what the blur meets).
-      const Eigen::Vector3d centre3 = 0.25 * (in_cam[0] + in_cam[1] + in_cam[2] + in_cam[3]);
-      for (int k = 0; k < 4; ++k) {
-        const Eigen::Vector2d a = true_px[k], b = true_px[(k + 1) % 4];
-        Eigen::Vector2d normal(-(b - a).y(), (b - a).x());
-        normal.normalize();
-        if (normal.dot(a - centre) < 0) normal = -normal;
-        const Eigen::Vector3d mid3 = 0.5 * (in_cam[k] + in_cam[(k + 1) % 4]);
-        const Eigen::Vector2d inward_px = camera.Project(mid3 + 0.25 * (centre3 - mid3));
-        const double across = normal.dot(camera.Project(mid3) - inward_px);
-        Bin edge;
-        edge.edge_outward.push_back(0.5 * (normal.dot(det.corners[k] - a) + normal.dot(det.corners[(k + 1) % 4] - b)));
-        by_across[BinOf(kAcrossEdges, across)].Add(edge);
-      }
-      bins[BinOf(kBinEdges, side_sum / 4 / 8)].Add(one);
-      by_angle[BinOf(kAngleEdges, ViewAngleDeg(in_cam))].Add(one);
+      const std::optional<TrueTag> true_tag = ProjectTruth(pose->second, truth->second, camera);
+      if (!true_tag) continue;
+      ++tally.found;
+      AddTag(det, *true_tag, camera, &tally);
     }
   }
-  nlohmann::json out = {{"recording", dir.string()}, {"mode", tracking ? "tracking" : "full_frame"},
-                        {"camera", with_camera}, {"tags", found}, {"wrong_ids", wrong}};
-  Bin all;
-  for (const Bin& bin : bins) all.Add(bin);
-  out["by_module"] = BinsJson(bins, kBinEdges, "px");
-  out["by_view_angle"] = BinsJson(by_angle, kAngleEdges, "deg");
-  nlohmann::json across = nlohmann::json::object();
-  for (size_t b = 0; b < by_across.size(); ++b) {
-    if (by_across[b].edge_outward.empty()) continue;
-    char name[64];
-    std::snprintf(name, sizeof(name), "%g_to_%g_px", kAcrossEdges[b], std::min(kAcrossEdges[b + 1], 99.0));
-    across[name] = {{"edges", by_across[b].edge_outward.size()}, {"outward_px", Mean(by_across[b].edge_outward)}};
-  }
-  out["edges_by_module_across"] = across;
-  out["all"] = BinJson(all);
+  nlohmann::json out = TallyJson(tally);
+  out["recording"] = dir.string();
+  out["mode"] = tracking ? "tracking" : "full_frame";
+  out["camera"] = with_camera;
   return out;
 }
 
