@@ -290,6 +290,20 @@ Result<cv::Mat> RenderTags(const std::string& family_name, int width, int height
   return image;
 }
 
+PlacedTag TagSeenFromOneMetre(int id, double cx, double cy, double side_px, const Eigen::Matrix3d& rotation) {
+  const double focal = 1000.0;  // a moderate perspective, like a 60 degree lens
+  const double half = 0.5 * side_px / focal;
+  const std::array<Eigen::Vector3d, 4> in_tag{Eigen::Vector3d(-half, half, 0), Eigen::Vector3d(half, half, 0),
+                                              Eigen::Vector3d(half, -half, 0), Eigen::Vector3d(-half, -half, 0)};
+  PlacedTag tag;
+  tag.id = id;
+  for (int k = 0; k < 4; ++k) {
+    const Eigen::Vector3d p = rotation * in_tag[k] + Eigen::Vector3d(0, 0, 1.0);
+    tag.corners[k] = Eigen::Vector2d(cx + focal * p.x() / p.z(), cy + focal * p.y() / p.z());
+  }
+  return tag;
+}
+
 std::vector<PlacedTag> RandomTagPlacements(int width, int height, int count, double side_px, double max_tilt_deg,
                                            std::uint64_t seed) {
   std::mt19937_64 rng(seed);
@@ -299,7 +313,6 @@ std::vector<PlacedTag> RandomTagPlacements(int width, int height, int count, dou
   const int columns = static_cast<int>((width - side_px) / cell);
   const int rows = static_cast<int>((height - side_px) / cell);
   std::vector<PlacedTag> placed;
-  const double focal = 1000.0;  // a moderate perspective, like a 60 degree lens
   const int cells = columns * rows;
   for (int i = 0; i < count && i < cells; ++i) {
     // Spread over the whole grid, not packed into its first rows.
@@ -313,18 +326,7 @@ std::vector<PlacedTag> RandomTagPlacements(int width, int height, int count, dou
         (Eigen::AngleAxisd(spin, Eigen::Vector3d::UnitZ()) *
          Eigen::AngleAxisd(tilt, Eigen::Vector3d(std::cos(tilt_axis), std::sin(tilt_axis), 0.0)))
             .toRotationMatrix();
-    // A tag of side `side_px`/focal metres at 1 m, centred on the optical axis
-    // through (cx, cy); corners in libapriltag's order (y down).
-    const double half = 0.5 * side_px / focal;
-    const std::array<Eigen::Vector3d, 4> in_tag{Eigen::Vector3d(-half, half, 0), Eigen::Vector3d(half, half, 0),
-                                                Eigen::Vector3d(half, -half, 0), Eigen::Vector3d(-half, -half, 0)};
-    PlacedTag tag;
-    tag.id = i;
-    for (int k = 0; k < 4; ++k) {
-      const Eigen::Vector3d p = rotation * in_tag[k] + Eigen::Vector3d(0, 0, 1.0);
-      tag.corners[k] = Eigen::Vector2d(cx + focal * p.x() / p.z(), cy + focal * p.y() / p.z());
-    }
-    placed.push_back(tag);
+    placed.push_back(TagSeenFromOneMetre(i, cx, cy, side_px, rotation));
   }
   return placed;
 }

@@ -111,7 +111,6 @@ const MarginStats& Measure(double margin) {
   MarginStats stats;
   const CameraModel lens = WideLens();
   std::mt19937 rng(static_cast<unsigned>(17 * margin));
-  std::normal_distribution<double> start_error(0.0, 0.2);
   double render_s = 0.0;
   for (size_t f = 0; f < kFrames.size(); ++f) {
     const FrameSpec& spec = kFrames[f];
@@ -133,18 +132,7 @@ const MarginStats& Measure(double margin) {
       auto detected = (*detector)->Detect(frame.image, step);
       EXPECT_TRUE(detected.has_value());
       if (detected) testing::AccumulateCornerStats(frame.truth, *detected, &stats.detector);
-      DetectionSet fitted;
-      for (const PlacedTag& tag : frame.truth) {
-        const Result<TagLayout> layout = MakeTagLayout("tag36h11", tag.id);
-        EXPECT_TRUE(layout.has_value());
-        TagDetection t;
-        t.id = tag.id;
-        t.corners = tag.corners;
-        for (Eigen::Vector2d& c : t.corners) c += Eigen::Vector2d(start_error(rng), start_error(rng));
-        if (RefineCornersByEdgeLines(frame.image, *layout, &t.corners, spec.lens ? &lens : nullptr)) {
-          fitted.tags.push_back(t);
-        }
-      }
+      const DetectionSet fitted = testing::FitFromMovedTruth(frame.image, frame.truth, rng, spec.lens ? &lens : nullptr);
       testing::AccumulateCornerStats(frame.truth, fitted, &stats.fit);
     }
   }
@@ -196,15 +184,7 @@ TEST(CornerMargin, OneModuleOfWhiteOverTextureIsUnbiased) {
   const Result<cv::Mat> image = RenderTags("tag36h11", 640, 480, truth, render);
   ASSERT_TRUE(image.has_value()) << image.error().message;
   std::mt19937 rng(3);
-  std::normal_distribution<double> start_error(0.0, 0.2);
-  DetectionSet fitted;
-  for (const PlacedTag& tag : truth) {
-    TagDetection t;
-    t.id = tag.id;
-    t.corners = tag.corners;
-    for (Eigen::Vector2d& c : t.corners) c += Eigen::Vector2d(start_error(rng), start_error(rng));
-    if (RefineCornersByEdgeLines(*image, *MakeTagLayout("tag36h11", tag.id), &t.corners)) fitted.tags.push_back(t);
-  }
+  const DetectionSet fitted = testing::FitFromMovedTruth(*image, truth, rng);
   CornerStats stats;
   testing::AccumulateCornerStats(truth, fitted, &stats);
   std::printf("margin 1 over texture, 32 px: %s\n", stats.Summary().c_str());

@@ -27,7 +27,7 @@ std::vector<PlacedTag> TiltedTags(int width, int height, int count, double side_
                                   std::uint64_t seed) {
   std::mt19937_64 rng(seed);
   std::uniform_real_distribution<double> unit(0.0, 1.0);
-  const double cell = 2.2 * side_px, focal = 1000.0, half = 0.5 * side_px / focal;
+  const double cell = 2.2 * side_px;
   const int columns = static_cast<int>((width - side_px) / cell), rows = static_cast<int>((height - side_px) / cell);
   std::vector<PlacedTag> placed;
   for (int i = 0; i < count && i < columns * rows; ++i) {
@@ -38,15 +38,7 @@ std::vector<PlacedTag> TiltedTags(int width, int height, int count, double side_
         (Eigen::AngleAxisd(2.0 * M_PI * unit(rng), Eigen::Vector3d::UnitZ()) *
          Eigen::AngleAxisd(tilt_deg * M_PI / 180.0, Eigen::Vector3d(std::cos(axis), std::sin(axis), 0.0)))
             .toRotationMatrix();
-    const std::array<Eigen::Vector3d, 4> in_tag{Eigen::Vector3d(-half, half, 0), Eigen::Vector3d(half, half, 0),
-                                                Eigen::Vector3d(half, -half, 0), Eigen::Vector3d(-half, -half, 0)};
-    PlacedTag tag;
-    tag.id = i;
-    for (int k = 0; k < 4; ++k) {
-      const Eigen::Vector3d p = rotation * in_tag[k] + Eigen::Vector3d(0, 0, 1.0);
-      tag.corners[k] = Eigen::Vector2d(cx + focal * p.x() / p.z(), cy + focal * p.y() / p.z());
-    }
-    placed.push_back(tag);
+    placed.push_back(TagSeenFromOneMetre(i, cx, cy, side_px, rotation));
   }
   return placed;
 }
@@ -54,7 +46,6 @@ std::vector<PlacedTag> TiltedTags(int width, int height, int count, double side_
 testing::CornerStats FitTilted(double tilt_deg, double axis_deg, double margin, double texture) {
   testing::CornerStats stats;
   std::mt19937 rng(3);
-  std::normal_distribution<double> start_error(0.0, 0.2);
   for (int rep = 0; rep < 2; ++rep) {
     const std::vector<PlacedTag> truth = TiltedTags(800, 480, 24, 24.0, tilt_deg, axis_deg, 77 + rep);
     TagRenderOptions render;
@@ -66,15 +57,7 @@ testing::CornerStats FitTilted(double tilt_deg, double axis_deg, double margin, 
     const Result<cv::Mat> image = RenderTags("tag36h11", 800, 480, truth, render);
     EXPECT_TRUE(image.has_value());
     if (!image) return stats;
-    DetectionSet fitted;
-    for (const PlacedTag& tag : truth) {
-      TagDetection t;
-      t.id = tag.id;
-      t.corners = tag.corners;
-      for (Eigen::Vector2d& c : t.corners) c += Eigen::Vector2d(start_error(rng), start_error(rng));
-      if (RefineCornersByEdgeLines(*image, *MakeTagLayout("tag36h11", tag.id), &t.corners)) fitted.tags.push_back(t);
-    }
-    testing::AccumulateCornerStats(truth, fitted, &stats);
+    testing::AccumulateCornerStats(truth, testing::FitFromMovedTruth(*image, truth, rng), &stats);
   }
   std::printf("tilt %.0f about %.1f deg, margin %.0f, texture %.0f: %s\n", tilt_deg, axis_deg, margin, texture,
               stats.Summary().c_str());

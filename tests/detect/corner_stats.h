@@ -3,11 +3,16 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
+#include <random>
 #include <string>
 #include <vector>
 
+#include <gtest/gtest.h>
+
+#include "tagsfm/detect/corner_refinement.h"
 #include "tagsfm/detect/synthetic_tags.h"
 #include "tagsfm/detect/tag_detection.h"
+#include "tagsfm/detect/tag_layout.h"
 
 namespace tagsfm::testing {
 
@@ -89,6 +94,26 @@ inline void AccumulateCornerStats(const std::vector<PlacedTag>& truth, const Det
     stats->mean_x = x_sum / stats->errors.size();
     stats->mean_y = y_sum / stats->errors.size();
   }
+}
+
+// The edge fit alone: each true tag36h11 tag's corners moved by ~0.2 px
+// (Gaussian per coordinate, drawn from `rng`) and refined, through
+// `camera`'s lens when given. Tags the fit declines are left out.
+inline DetectionSet FitFromMovedTruth(const cv::Mat& image, const std::vector<PlacedTag>& truth, std::mt19937& rng,
+                                      const CameraModel* camera = nullptr) {
+  std::normal_distribution<double> start_error(0.0, 0.2);
+  DetectionSet fitted;
+  for (const PlacedTag& tag : truth) {
+    const Result<TagLayout> layout = MakeTagLayout("tag36h11", tag.id);
+    EXPECT_TRUE(layout.has_value()) << "tag " << tag.id;
+    if (!layout) continue;
+    TagDetection t;
+    t.id = tag.id;
+    t.corners = tag.corners;
+    for (Eigen::Vector2d& c : t.corners) c += Eigen::Vector2d(start_error(rng), start_error(rng));
+    if (RefineCornersByEdgeLines(image, *layout, &t.corners, camera)) fitted.tags.push_back(t);
+  }
+  return fitted;
 }
 
 }  // namespace tagsfm::testing

@@ -60,6 +60,12 @@ struct TagRenderOptions {
 Result<cv::Mat> RenderTags(const std::string& family, int width, int height, const std::vector<PlacedTag>& tags,
                            const TagRenderOptions& options);
 
+// Tag `id` seen by a camera of focal 1000 px from 1 m away: a square of
+// `side_px` / 1000 m turned by `rotation` (tag frame: x right, y down in the
+// image before turning, z away), its centre on the ray through (cx, cy);
+// corners in libapriltag's order.
+PlacedTag TagSeenFromOneMetre(int id, double cx, double cy, double side_px, const Eigen::Matrix3d& rotation);
+
 // `count` tags of the family (ids 0..count-1) seen in perspective: each a
 // square of about `side_px` pixels, tilted up to `max_tilt_deg` about a random
 // axis in the tag plane and rotated at random in the image, laid on a grid so
