@@ -15,6 +15,10 @@ namespace tagsfm {
 Status FeatureExtractorOptions::Check() const {
   if (max_features < 0) return MakeError("features.max_features must be >= 0 (0: no limit)");
   if (!(contrast_threshold > 0 && contrast_threshold < 1)) return MakeError("features.contrast_threshold must be in (0, 1)");
+  if (!(min_features_per_megapixel >= 0)) return MakeError("features.min_features_per_megapixel must be >= 0");
+  if (!(min_contrast_threshold > 0 && min_contrast_threshold <= contrast_threshold)) {
+    return MakeError("features.min_contrast_threshold must be in (0, contrast_threshold]");
+  }
   if (!(tag_margin >= 0)) return MakeError("features.tag_margin must be >= 0");
   if (!(image_scale > 0.1 && image_scale <= 1)) return MakeError("features.image_scale must be in (0.1, 1]");
   return Status::Ok();
@@ -95,19 +99,21 @@ Result<KeyframeFeatures> ExtractFeatures(const cv::Mat& gray, const cv::Mat& col
   if (Status s = options.Check(); !s) return s.error();
   if (gray.empty() || gray.type() != CV_8UC1) return MakeError("frame " + std::to_string(tags.frame) + ": features need an 8-bit grey image");
   const cv::Mat full_mask = MaskOutsideTags(gray.size(), tags, options.tag_margin);
-  double contrast = options.contrast_threshold;
-  if (options.contrast_relative_to_range) contrast *= std::clamp(GreyRangeFraction(gray, full_mask), 0.1, 1.0);
-  cv::Ptr<cv::SIFT> sift = cv::SIFT::create(options.max_features, 3, contrast);
+  const double range = options.contrast_relative_to_range ? std::clamp(GreyRangeFraction(gray, full_mask), 0.1, 1.0) : 1.0;
+  const double scale = options.image_scale;
+  cv::Mat image = gray, mask = full_mask;
+  if (scale < 1.0) {
+    cv::resize(gray, image, cv::Size(), scale, scale, cv::INTER_AREA);
+    cv::resize(full_mask, mask, image.size(), 0, 0, cv::INTER_NEAREST);
+  }
+  const double floor = options.min_features_per_megapixel * cv::countNonZero(mask) * 1e-6 / (scale * scale);
   std::vector<cv::KeyPoint> keypoints;
   cv::Mat descriptors;
-  const double scale = options.image_scale;
-  if (scale < 1.0) {
-    cv::Mat small, mask;
-    cv::resize(gray, small, cv::Size(), scale, scale, cv::INTER_AREA);
-    cv::resize(full_mask, mask, small.size(), 0, 0, cv::INTER_NEAREST);
-    sift->detectAndCompute(small, mask, keypoints, descriptors);
-  } else {
-    sift->detectAndCompute(gray, full_mask, keypoints, descriptors);
+  for (double threshold = options.contrast_threshold;; threshold *= 0.5) {
+    threshold = std::max(threshold, options.min_contrast_threshold);
+    keypoints.clear();
+    cv::SIFT::create(options.max_features, 3, threshold * range)->detectAndCompute(image, mask, keypoints, descriptors);
+    if (static_cast<double>(keypoints.size()) >= floor || threshold <= options.min_contrast_threshold) break;
   }
   NormaliseDescriptors(descriptors, options.root_sift);
 

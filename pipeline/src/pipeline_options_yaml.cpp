@@ -85,6 +85,8 @@ void ReadExtractor(YamlFields f, FeatureExtractorOptions* o) {
   f.Read("max_features", &o->max_features);
   f.Read("contrast_threshold", &o->contrast_threshold);
   f.Read("contrast_relative_to_range", &o->contrast_relative_to_range);
+  f.Read("min_features_per_megapixel", &o->min_features_per_megapixel);
+  f.Read("min_contrast_threshold", &o->min_contrast_threshold);
   f.Read("root_sift", &o->root_sift);
   f.Read("tag_margin", &o->tag_margin);
   f.Read("image_scale", &o->image_scale);

@@ -1,5 +1,7 @@
 // Keyframe features: the pixel convention, the tag mask, the descriptors.
+#include <algorithm>
 #include <cmath>
+#include <vector>
 
 #include <gtest/gtest.h>
 #include <opencv2/imgproc.hpp>
@@ -80,6 +82,7 @@ TEST(FeatureExtractor, ADimExposureKeepsItsFeaturesWithTheRelativeThreshold) {
   cv::Mat dim;
   bright.convertTo(dim, CV_8U, 0.3);
   FeatureExtractorOptions options;
+  options.min_features_per_megapixel = 0;  // the threshold alone (the floor has its own test)
   auto on_bright = ExtractFeatures(bright, cv::Mat(), DetectionSet{0, {}}, options);
   auto on_dim = ExtractFeatures(dim, cv::Mat(), DetectionSet{1, {}}, options);
   options.contrast_relative_to_range = false;
@@ -98,6 +101,63 @@ TEST(FeatureExtractor, ADimExposureKeepsItsFeaturesWithTheRelativeThreshold) {
   EXPECT_LT(on_bright->size(), 1.5 * absolute_bright->size());
 }
 
+// A plain wall: stucco of +-14 grey levels, with a dark door frame that sets
+// the grey range. At the threshold SIFT finds few features there; the
+// floor runs it again lower. The features it had are kept, the new ones
+// are located as well (the image shifted by a whole number of pixels), and
+// a textured view is left as it was.
+cv::Mat PlainWall(int width, int height, unsigned seed) {
+  cv::Mat wall;
+  Texture(width, height, seed).convertTo(wall, CV_8U, 28.0 / 215, 190 - 20 * 28.0 / 215);
+  cv::rectangle(wall, cv::Rect(width / 2 - 20, 0, 40, height), cv::Scalar(40), cv::FILLED);
+  return wall;
+}
+
+TEST(FeatureExtractor, ATexturePoorViewIsExtractedAgainAtALowerThreshold) {
+  const cv::Mat wall = PlainWall(640, 480, 5);
+  FeatureExtractorOptions without_floor;
+  without_floor.min_features_per_megapixel = 0;
+  auto few = ExtractFeatures(wall, cv::Mat(), DetectionSet{0, {}}, without_floor);
+  auto more = ExtractFeatures(wall, cv::Mat(), DetectionSet{0, {}}, {});
+  ASSERT_TRUE(few && more);
+  const double floor = FeatureExtractorOptions().min_features_per_megapixel * 640 * 480 * 1e-6;
+  std::printf("plain wall: %d features at the threshold, %d with the floor (%.0f)\n", few->size(), more->size(), floor);
+  ASSERT_LT(few->size(), floor);
+  EXPECT_GT(more->size(), 2 * few->size());
+  int kept = 0;
+  for (const Eigen::Vector2d& p : few->pixels) {
+    kept += std::any_of(more->pixels.begin(), more->pixels.end(), [&](const Eigen::Vector2d& q) { return (p - q).norm() < 1e-3; });
+  }
+  EXPECT_GT(kept, 0.95 * few->size());
+
+  // The wall moved by (+7, -4): features of the shifted wall at the
+  // shifted spot, as close as on a textured view (the shift test above).
+  cv::Mat moved;
+  const cv::Mat shift = (cv::Mat_<double>(2, 3) << 1, 0, 7, 0, 1, -4);
+  cv::warpAffine(wall, moved, shift, wall.size(), cv::INTER_NEAREST, cv::BORDER_REFLECT);
+  auto on_moved = ExtractFeatures(moved, cv::Mat(), DetectionSet{1, {}}, {});
+  ASSERT_TRUE(on_moved.has_value());
+  std::vector<double> errors;
+  for (const Eigen::Vector2d& p : more->pixels) {
+    const Eigen::Vector2d target = p + Eigen::Vector2d(7, -4);
+    if (target.x() < 20 || target.y() < 20 || target.x() > 620 || target.y() > 460) continue;
+    double nearest = INFINITY;
+    for (const Eigen::Vector2d& q : on_moved->pixels) nearest = std::min(nearest, (q - target).norm());
+    if (nearest < 1.0) errors.push_back(nearest);
+  }
+  ASSERT_GT(errors.size(), 0.7 * more->size());
+  std::nth_element(errors.begin(), errors.begin() + static_cast<long>(errors.size() / 2), errors.end());
+  EXPECT_LT(errors[errors.size() / 2], 0.01);
+
+  // A textured view has more than the floor at the threshold: untouched.
+  const cv::Mat textured = Texture(640, 480, 3);
+  auto plain = ExtractFeatures(textured, cv::Mat(), DetectionSet{0, {}}, without_floor);
+  auto with_floor = ExtractFeatures(textured, cv::Mat(), DetectionSet{0, {}}, {});
+  ASSERT_TRUE(plain && with_floor);
+  ASSERT_GE(plain->size(), floor);
+  EXPECT_EQ(plain->pixels, with_floor->pixels);
+}
+
 TEST(FeatureExtractor, BadInputIsAnError) {
   EXPECT_FALSE(ExtractFeatures(cv::Mat(), cv::Mat(), DetectionSet{7, {}}, {}).has_value());
   FeatureExtractorOptions options;
@@ -105,6 +165,11 @@ TEST(FeatureExtractor, BadInputIsAnError) {
   const Status s = options.Check();
   ASSERT_FALSE(s);
   EXPECT_NE(s.error().message.find("image_scale"), std::string::npos);
+  options = {};
+  options.min_contrast_threshold = 2 * options.contrast_threshold;
+  const Status above = options.Check();
+  ASSERT_FALSE(above);
+  EXPECT_NE(above.error().message.find("min_contrast_threshold"), std::string::npos);
   auto tiny = ExtractFeatures(cv::Mat(1, 1, CV_8U, cv::Scalar(0)), cv::Mat(), DetectionSet{8, {}}, {});
   ASSERT_TRUE(tiny.has_value());
   EXPECT_EQ(tiny->size(), 0);

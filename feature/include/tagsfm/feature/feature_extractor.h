@@ -27,6 +27,13 @@ struct FeatureExtractorOptions {
   // absolute grey values, so a dim or low-contrast exposure loses most of
   // its features where a well exposed one of the same scene keeps them.
   bool contrast_relative_to_range = true;
+  // Texture-poor views (white walls, doors, a plain object on a plain
+  // background): when SIFT finds fewer features than this per megapixel of
+  // the image outside the tags, it runs again at half the threshold, down
+  // to min_contrast_threshold (before the range scaling). A textured view
+  // keeps its features as they were; 0: never (docs/features.md).
+  double min_features_per_megapixel = 4000;
+  double min_contrast_threshold = 0.005;
   // RootSIFT (Arandjelovic & Zisserman 2012: L1-normalise, square root)
   // instead of plain SIFT; either way the descriptors have unit L2 norm.
   bool root_sift = true;
