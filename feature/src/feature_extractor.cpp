@@ -28,11 +28,23 @@ Status KeyframeFeatures::Check() const {
   const size_t n = pixels.size();
   const std::string where = "frame " + std::to_string(frame) + ": ";
   if (rgb.size() != n || scale.size() != n || orientation.size() != n) return MakeError(where + "features' pixels, rgb, scale and orientation differ in length");
-  if (n > 0 && (descriptors.type() != CV_32F || descriptors.cols != 128 || static_cast<size_t>(descriptors.rows) != n)) {
-    return MakeError(where + "features need one 128-float descriptor per pixel");
+  if (n > 0 && (descriptors.type() != CV_8U || descriptors.cols != 128 || static_cast<size_t>(descriptors.rows) != n)) {
+    return MakeError(where + "features need one 128-byte descriptor per pixel");
   }
   if (!image.empty() && image.type() != CV_8UC1) return MakeError(where + "the features' image must be 8-bit grey");
   return Status::Ok();
+}
+
+cv::Mat QuantiseDescriptors(const cv::Mat& unit_descriptors) {
+  cv::Mat bytes;
+  unit_descriptors.convertTo(bytes, CV_8U, kDescriptorQuantum);  // rounds and saturates
+  return bytes;
+}
+
+cv::Mat DescriptorsAsFloat(const cv::Mat& quantised) {
+  cv::Mat floats;
+  quantised.convertTo(floats, CV_32F, 1.0 / kDescriptorQuantum);
+  return floats;
 }
 
 namespace {
@@ -125,7 +137,7 @@ Result<KeyframeFeatures> ExtractFeatures(const cv::Mat& gray, const cv::Mat& col
   constexpr double kSiftOffsetPx = 0.25;
   KeyframeFeatures out;
   out.frame = tags.frame;
-  out.descriptors = descriptors;
+  out.descriptors = QuantiseDescriptors(descriptors);
   out.image = gray.clone();  // the caller may reuse its buffer
   const size_t n = keypoints.size();
   out.pixels.reserve(n);
@@ -140,7 +152,7 @@ Result<KeyframeFeatures> ExtractFeatures(const cv::Mat& gray, const cv::Mat& col
     out.scale.push_back(static_cast<float>(k.size / scale));
     out.orientation.push_back(k.angle);
   }
-  if (n == 0) out.descriptors = cv::Mat(0, 128, CV_32F);
+  if (n == 0) out.descriptors = cv::Mat(0, 128, CV_8U);
   return out;
 }
 

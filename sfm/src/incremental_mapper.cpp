@@ -110,8 +110,12 @@ class Mapper {
 
 void Mapper::MatchAll() {
   const auto start = std::chrono::steady_clock::now();
+  // FLANN's k-d trees search floats: the views' descriptors as floats while
+  // matching.
+  std::vector<cv::Mat> descriptors;
   std::vector<std::unique_ptr<DescriptorIndex>> indexes;
-  for (const KeyframeFeatures& v : views_) indexes.push_back(std::make_unique<DescriptorIndex>(v.descriptors));
+  for (const KeyframeFeatures& v : views_) descriptors.push_back(DescriptorsAsFloat(v.descriptors));
+  for (const cv::Mat& d : descriptors) indexes.push_back(std::make_unique<DescriptorIndex>(d));
   RelativePoseOptions rel;
   rel.max_error_px = options_.max_error_px;
   rel.focal_px = focal_;
@@ -121,7 +125,7 @@ void Mapper::MatchAll() {
       if (options_.match_window > 0 && b - a > options_.match_window) break;
       ++stats_.pairs_matched;
       const std::vector<FeatureMatch> matches =
-          MatchMutual(views_[a].descriptors, *indexes[a], views_[b].descriptors, *indexes[b], options_.ratio);
+          MatchMutual(descriptors[static_cast<size_t>(a)], *indexes[a], descriptors[static_cast<size_t>(b)], *indexes[b], options_.ratio);
       if (static_cast<int>(matches.size()) < rel.min_inliers) continue;
       std::vector<Eigen::Vector2d> na, nb;
       for (const FeatureMatch& m : matches) {

@@ -46,7 +46,7 @@ Residuals MatchThrough(const cv::Mat& first, const cv::Matx33d& h, const Feature
   Residuals r;
   if (!a || !b || a->size() < 2) return r;
   cv::Mat dots;  // unit descriptors: distance^2 = 2 - 2 dot
-  cv::gemm(b->descriptors, a->descriptors, 1.0, cv::Mat(), 0.0, dots, cv::GEMM_2_T);
+  cv::gemm(DescriptorsAsFloat(b->descriptors), DescriptorsAsFloat(a->descriptors), 1.0, cv::Mat(), 0.0, dots, cv::GEMM_2_T);
   for (int i = 0; i < b->size(); ++i) {
     double best = -2, second_best = -2;
     int best_j = -1;

@@ -44,7 +44,7 @@ TEST(FeatureExtractor, ShiftedImageGivesShiftedFeaturesWithCloseDescriptors) {
     double nearest = INFINITY;
     for (int j = 0; j < b->size(); ++j) {
       if ((b->pixels[static_cast<size_t>(j)] - target).norm() > 0.05) continue;
-      nearest = std::min(nearest, cv::norm(a->descriptors.row(i), b->descriptors.row(j)));
+      nearest = std::min(nearest, cv::norm(DescriptorsAsFloat(a->descriptors.row(i)), DescriptorsAsFloat(b->descriptors.row(j))));
     }
     if (std::isfinite(nearest)) {
       ++found;
@@ -53,7 +53,10 @@ TEST(FeatureExtractor, ShiftedImageGivesShiftedFeaturesWithCloseDescriptors) {
   }
   EXPECT_GT(found, 0.8 * a->size() * 0.8);
   EXPECT_GT(close, 0.95 * found);
-  for (int r = 0; r < a->descriptors.rows; ++r) EXPECT_NEAR(cv::norm(a->descriptors.row(r)), 1.0, 1e-4);
+  // Unit descriptors, kept as bytes: the norm is 1 up to the rounding of
+  // 128 components by at most half a quantum each.
+  const cv::Mat unit = DescriptorsAsFloat(a->descriptors);
+  for (int r = 0; r < unit.rows; ++r) EXPECT_NEAR(cv::norm(unit.row(r)), 1.0, 0.5 * std::sqrt(128.0) / kDescriptorQuantum);
 }
 
 TEST(FeatureExtractor, NoFeaturesOnTagsAndMaxFeaturesIsHonoured) {
@@ -156,6 +159,36 @@ TEST(FeatureExtractor, ATexturePoorViewIsExtractedAgainAtALowerThreshold) {
   ASSERT_TRUE(plain && with_floor);
   ASSERT_GE(plain->size(), floor);
   EXPECT_EQ(plain->pixels, with_floor->pixels);
+}
+
+// Descriptors kept as bytes: distances between them within ~0.01 of the
+// floats' (the matcher's ratio test and distance limit see the same
+// values), and no component of a real RootSIFT descriptor clipped at 255.
+TEST(FeatureExtractor, DescriptorsAsBytesKeepTheirDistances) {
+  cv::Mat unit(200, 128, CV_32F);
+  cv::RNG rng(4);
+  rng.fill(unit, cv::RNG::UNIFORM, 0.0, 1.0);
+  for (int r = 0; r < unit.rows; ++r) {
+    cv::pow(unit.row(r), 3.0, unit.row(r));  // peaky, like SIFT's histograms
+    cv::normalize(unit.row(r), unit.row(r));
+  }
+  const cv::Mat back = DescriptorsAsFloat(QuantiseDescriptors(unit));
+  double worst = 0;
+  for (int a = 0; a < unit.rows; ++a) {
+    for (int b = a + 1; b < unit.rows; b += 7) {
+      worst = std::max(worst, std::abs(cv::norm(unit.row(a), unit.row(b)) - cv::norm(back.row(a), back.row(b))));
+    }
+  }
+  EXPECT_LT(worst, std::sqrt(128.0) / kDescriptorQuantum);  // every component off by half a quantum, both sides
+  EXPECT_LT(worst, 0.03);
+
+  for (unsigned seed : {3u, 9u}) {
+    auto features = ExtractFeatures(Texture(640, 480, seed), cv::Mat(), DetectionSet{0, {}}, {});
+    ASSERT_TRUE(features.has_value());
+    double max_byte = 0;
+    cv::minMaxLoc(features->descriptors, nullptr, &max_byte);
+    EXPECT_LT(max_byte, 255) << "a component clipped";
+  }
 }
 
 TEST(FeatureExtractor, BadInputIsAnError) {

@@ -61,8 +61,9 @@ SyntheticSet MakeSet(int frames, double arc_deg, double noise_px, bool pure_rota
       view.orientation.push_back(0);
       rows.push_back(i);
     }
-    view.descriptors = cv::Mat(static_cast<int>(rows.size()), 128, CV_32F);
-    for (size_t r = 0; r < rows.size(); ++r) descriptors.row(rows[r]).copyTo(view.descriptors.row(static_cast<int>(r)));
+    cv::Mat unit(static_cast<int>(rows.size()), 128, CV_32F);
+    for (size_t r = 0; r < rows.size(); ++r) descriptors.row(rows[r]).copyTo(unit.row(static_cast<int>(r)));
+    view.descriptors = QuantiseDescriptors(unit);
     s.views.push_back(std::move(view));
     s.true_point.push_back(rows);
   }
@@ -124,7 +125,7 @@ TEST(SfmMapper, NoTextureOrTooFewViewsIsAnError) {
   std::vector<KeyframeFeatures> empty(3);
   for (int i = 0; i < 3; ++i) {
     empty[static_cast<size_t>(i)].frame = i;
-    empty[static_cast<size_t>(i)].descriptors = cv::Mat(0, 128, CV_32F);
+    empty[static_cast<size_t>(i)].descriptors = cv::Mat(0, 128, CV_8U);
   }
   auto none = ReconstructIncremental(empty, camera, {});
   ASSERT_FALSE(none.has_value());
@@ -143,10 +144,12 @@ TEST(SfmMapper, AnUnrelatedViewStaysUnregisteredWithAReason) {
   // View 3 sees other points: descriptors no other view has.
   std::mt19937 rng(5);
   std::normal_distribution<double> gauss(0.0, 1.0);
-  for (int r = 0; r < s.views[3].descriptors.rows; ++r) {
-    for (int c = 0; c < 128; ++c) s.views[3].descriptors.at<float>(r, c) = static_cast<float>(std::abs(gauss(rng)));
-    cv::normalize(s.views[3].descriptors.row(r), s.views[3].descriptors.row(r));
+  cv::Mat other(s.views[3].descriptors.rows, 128, CV_32F);
+  for (int r = 0; r < other.rows; ++r) {
+    for (int c = 0; c < 128; ++c) other.at<float>(r, c) = static_cast<float>(std::abs(gauss(rng)));
+    cv::normalize(other.row(r), other.row(r));
   }
+  s.views[3].descriptors = QuantiseDescriptors(other);
   auto result = ReconstructIncremental(s.views, s.camera, {});
   ASSERT_TRUE(result.has_value()) << result.error().message;
   EXPECT_EQ(result->model.RegisteredImages(), 5);
