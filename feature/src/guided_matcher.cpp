@@ -158,24 +158,24 @@ struct Segment {
   double inverse_length2;
 };
 
-// Euclidean distance of two quantised descriptors, back in the units of
-// the unit descriptors. The squared differences are summed in integers,
-// which the compiler vectorises sixteen bytes at a time.
-float DescriptorDistance(const std::uint8_t* a, const std::uint8_t* b) {
+// Squared distance of two byte descriptors, in quanta: summed in integers,
+// which the compiler vectorises sixteen bytes at a time. Candidates are
+// ranked by it; the square root only for the matches.
+std::int32_t SquaredDescriptorDistance(const std::uint8_t* a, const std::uint8_t* b) {
   std::int32_t sum = 0;
   for (int k = 0; k < 128; ++k) {
     const std::int32_t d = static_cast<std::int32_t>(a[k]) - static_cast<std::int32_t>(b[k]);
     sum += d * d;
   }
-  return static_cast<float>(std::sqrt(static_cast<double>(sum)) / kDescriptorQuantum);
+  return sum;
 }
 
 struct BestTwo {
   int best = -1;
-  float d1 = std::numeric_limits<float>::infinity();
-  float d2 = std::numeric_limits<float>::infinity();
+  std::int32_t d1 = std::numeric_limits<std::int32_t>::max();  // squared, quanta
+  std::int32_t d2 = std::numeric_limits<std::int32_t>::max();
 
-  void Offer(int index, float d) {
+  void Offer(int index, std::int32_t d) {
     if (d < d1) {
       d2 = d1;
       d1 = d;
@@ -184,7 +184,11 @@ struct BestTwo {
       d2 = d;
     }
   }
-  bool Passes(double ratio, double max_distance) const { return best >= 0 && d1 <= max_distance && d1 < ratio * d2; }
+  // Lowe's ratio and the distance limit, on the squares.
+  bool Passes(double ratio, double max_distance) const {
+    const double max_squared = max_distance * max_distance * kDescriptorQuantum * kDescriptorQuantum;
+    return best >= 0 && d1 <= max_squared && d1 < ratio * ratio * static_cast<double>(d2);
+  }
 };
 
 }  // namespace
@@ -241,7 +245,7 @@ GuidedMatches MatchGuided(const PosedKeyframe& first, const PosedKeyframe& secon
     grid.ForItemsNearSegment(a, b, band, [&](int j, int slot) {
       if (segment.SquaredDistance(slot_pixels[static_cast<size_t>(slot)]) > band2) return;
       ++out.candidates;
-      const float d = DescriptorDistance(desc1, slot_descriptors.ptr<std::uint8_t>(slot));
+      const std::int32_t d = SquaredDescriptorDistance(desc1, slot_descriptors.ptr<std::uint8_t>(slot));
       f.Offer(j, d);
       backward[static_cast<size_t>(j)].Offer(i, d);
     });
@@ -251,7 +255,7 @@ GuidedMatches MatchGuided(const PosedKeyframe& first, const PosedKeyframe& secon
     if (!f.Passes(options.ratio, options.max_descriptor_distance)) continue;
     const BestTwo& b = backward[static_cast<size_t>(f.best)];
     if (b.best != i || !b.Passes(options.ratio, options.max_descriptor_distance)) continue;
-    out.matches.push_back({i, f.best, f.d1});
+    out.matches.push_back({i, f.best, static_cast<float>(std::sqrt(static_cast<double>(f.d1)) / kDescriptorQuantum)});
   }
   return out;
 }
