@@ -1,7 +1,8 @@
 // tagsfm calibrate REC: intrinsics from the targets for a recording without
 // a camera block, as replay finds them (pipeline/: calibrated from the tag
-// views, then adjusted with every frame's pose and the map); writes the
-// camera block into REC/recording.yaml.
+// views, then adjusted with every frame's pose and the map), with each
+// parameter's sigma; writes the camera block into REC/recording.yaml unless
+// the views leave it unconstrained (recon/intrinsics_check.h).
 #include <filesystem>
 #include <string>
 
@@ -12,6 +13,7 @@
 #include "tagsfm/core/file_util.h"
 #include "tagsfm/pipeline/drivers.h"
 #include "tagsfm/pipeline/target_map.h"
+#include "tagsfm/recon/intrinsics_check.h"
 
 namespace tagsfm {
 namespace {
@@ -20,6 +22,7 @@ struct CalibrateArgs {
   std::string recording;
   bool force = false;
   bool dry_run = false;
+  bool accept_unconstrained = false;
 };
 
 int RunCalibrate(const CalibrateArgs& args) {
@@ -53,6 +56,27 @@ int RunCalibrate(const CalibrateArgs& args) {
                "k1 {:.4f} k2 {:.4f}, {:.3f} px RMS",
                r.observations, c.fx, c.fy, c.cx, c.cy, c.distortion.size() > 0 ? c.distortion[0] : 0.0,
                c.distortion.size() > 1 ? c.distortion[1] : 0.0, r.reprojection_rms_px);
+  const std::optional<IntrinsicsUncertainty> u = JudgeIntrinsics(r, {});
+  if (!u) {
+    return Fail(MakeError(yaml.string() + ": the intrinsics' uncertainty could not be computed (" + r.covariance_note +
+                          "); nothing written"),
+                1);
+  }
+  const std::array<double, 6>& s = u->sigma;
+  spdlog::info("sigma: fx {:.2f} fy {:.2f} cx {:.2f} cy {:.2f} px, k1 {:.4f} k2 {:.4f}; distortion {:.2f} px out to "
+               "{:.0f} px from the centre, where targets were seen ({:.2f} px at the image's corners)",
+               s[0], s[1], s[2], s[3], s[4], s[5], u->distortion_sigma_px, u->observed_radius_px, u->distortion_sigma_corner_px);
+  if (!u->unconstrained.empty()) {
+    std::string why;
+    for (const std::string& w : u->unconstrained) why += (why.empty() ? "" : "; ") + w;
+    spdlog::log(args.accept_unconstrained ? spdlog::level::warn : spdlog::level::err,
+                "the views do not constrain the intrinsics: {}. Add views with tags tilted 30-60 degrees, at several "
+                "distances, and near the image's corners",
+                why);
+    if (!args.accept_unconstrained && !args.dry_run) {
+      return Fail(MakeError(yaml.string() + ": nothing written (--accept-unconstrained writes it anyway)"), 1);
+    }
+  }
   if (args.dry_run) return 0;
   RecordingInfo info = reader->info();
   info.camera = c;
@@ -66,6 +90,8 @@ void AddCalibrateCommand(CLI::App& app, int& exit_code) {
   cmd->add_option("recording", args->recording, "recording folder")->required();
   cmd->add_flag("--force", args->force, "replace an existing camera block");
   cmd->add_flag("--dry-run", args->dry_run, "print the estimate, write nothing");
+  cmd->add_flag("--accept-unconstrained", args->accept_unconstrained,
+                "write the estimate even when the views leave a parameter's sigma beyond its limit");
   cmd->callback([args, &exit_code] { exit_code = RunCalibrate(*args); });
 }
 

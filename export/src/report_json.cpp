@@ -8,6 +8,7 @@
 #include "tagsfm/core/file_util.h"
 #include "tagsfm/export/feature_triangulation_json.h"
 #include "tagsfm/export/result_writer.h"
+#include "tagsfm/recon/intrinsics_check.h"
 
 namespace tagsfm {
 namespace {
@@ -119,6 +120,14 @@ Status WriteReport(const std::filesystem::path& path, const ReconstructionResult
   report["skipped_frames"] = skipped;
   report["global_adjustment_converged"] = result.global_adjustment_converged;
   report["intrinsics_refined"] = result.intrinsics_refined;
+  if (const std::optional<IntrinsicsUncertainty> u = JudgeIntrinsics(result, {})) {
+    const std::array<double, 6>& s = u->sigma;
+    report["intrinsics_sigma"] = {{"fx", s[0]}, {"fy", s[1]}, {"cx", s[2]}, {"cy", s[3]}, {"k1", s[4]}, {"k2", s[5]},
+                                  {"observed_radius_px", u->observed_radius_px},
+                                  {"distortion_px", u->distortion_sigma_px},
+                                  {"distortion_at_corners_px", u->distortion_sigma_corner_px}};
+    report["intrinsics_unconstrained"] = u->unconstrained;  // empty: the views constrain them
+  }
   report["global_adjustment_s"] = result.global_adjustment_s;
   report["covariance_s"] = result.covariance_s;
   report["points_adjusted"] = result.points_adjusted;          // feature points adjusted with the targets

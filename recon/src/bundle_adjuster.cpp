@@ -238,7 +238,8 @@ std::map<const double*, int> LearnedTagColumns(ceres::Problem* problem, std::map
 }
 
 // The normal equations J^T J by blocks: per camera H_cc (6x6) and its H_ct
-// with each tag it sees (6x6), and H_tt over all the tags' unknowns.
+// with each other block it meets (6x6), and H_tt over all the other
+// unknowns: the learned tags' and, when adjusted, the intrinsics' (6 each).
 struct NormalBlocks {
   std::vector<Eigen::Matrix<double, 6, 6>> h_cc;
   std::vector<std::map<int, Eigen::Matrix<double, 6, 6>>> h_ct;
@@ -246,39 +247,52 @@ struct NormalBlocks {
 };
 
 // Accumulated row by row of the sparse Jacobian, whose columns are the
-// cameras' 6 each and then the tags' 6 each.
-NormalBlocks AccumulateNormalBlocks(const ceres::CRSMatrix& jacobian, int cameras, int tag_unknowns) {
+// cameras' 6 each and then the other blocks' 6 each. A row meets at most
+// one camera, one tag and the intrinsics.
+NormalBlocks AccumulateNormalBlocks(const ceres::CRSMatrix& jacobian, int cameras, int other_unknowns) {
+  using Vector6d = Eigen::Matrix<double, 6, 1>;
   NormalBlocks n;
   n.h_cc.assign(static_cast<size_t>(cameras), Eigen::Matrix<double, 6, 6>::Zero());
   n.h_ct.resize(static_cast<size_t>(cameras));
-  n.h_tt = Eigen::MatrixXd::Zero(tag_unknowns, tag_unknowns);
+  n.h_tt = Eigen::MatrixXd::Zero(other_unknowns, other_unknowns);
   const int camera_columns = 6 * cameras;
   for (int r = 0; r < jacobian.num_rows; ++r) {
-    // Entries of one row: at most one camera and one tag.
-    int camera = -1, tag = -1;
-    Eigen::Matrix<double, 6, 1> jc = Eigen::Matrix<double, 6, 1>::Zero(), jt = Eigen::Matrix<double, 6, 1>::Zero();
+    int camera = -1;
+    Vector6d jc = Vector6d::Zero();
+    std::array<std::pair<int, Vector6d>, 2> others;  // block, its row of the Jacobian
+    int n_others = 0;
     for (int k = jacobian.rows[r]; k < jacobian.rows[r + 1]; ++k) {
       const int col = jacobian.cols[k];
       if (col < camera_columns) {
         camera = col / 6;
         jc(col % 6) = jacobian.values[k];
-      } else {
-        tag = (col - camera_columns) / 6;
-        jt((col - camera_columns) % 6) = jacobian.values[k];
+        continue;
       }
+      const int block = (col - camera_columns) / 6;
+      if (n_others == 0 || others[static_cast<size_t>(n_others - 1)].first != block) {
+        if (n_others == 2) continue;  // not a residual of this adjustment's kinds
+        others[static_cast<size_t>(n_others++)] = {block, Vector6d::Zero()};
+      }
+      others[static_cast<size_t>(n_others - 1)].second((col - camera_columns) % 6) = jacobian.values[k];
     }
     if (camera >= 0) n.h_cc[camera] += jc * jc.transpose();
-    if (tag >= 0) n.h_tt.block<6, 6>(6 * tag, 6 * tag) += jt * jt.transpose();
-    if (camera >= 0 && tag >= 0) {
-      auto [it, inserted] = n.h_ct[camera].try_emplace(tag, Eigen::Matrix<double, 6, 6>::Zero());
-      it->second += jc * jt.transpose();
+    for (int a = 0; a < n_others; ++a) {
+      const auto& [block_a, ja] = others[static_cast<size_t>(a)];
+      for (int b = 0; b < n_others; ++b) {
+        const auto& [block_b, jb] = others[static_cast<size_t>(b)];
+        n.h_tt.block<6, 6>(6 * block_a, 6 * block_b) += ja * jb.transpose();
+      }
+      if (camera >= 0) {
+        auto [it, inserted] = n.h_ct[camera].try_emplace(block_a, Eigen::Matrix<double, 6, 6>::Zero());
+        it->second += jc * ja.transpose();
+      }
     }
   }
   return n;
 }
 
-// The cameras eliminated: S = H_tt - sum_c H_tc H_cc^-1 H_ct, the tags'
-// information with every camera free.
+// The cameras eliminated: S = H_tt - sum_c H_tc H_cc^-1 H_ct, the other
+// blocks' information with every camera free.
 Eigen::MatrixXd TagSchurComplement(const NormalBlocks& n) {
   Eigen::MatrixXd s = n.h_tt;
   for (size_t c = 0; c < n.h_cc.size(); ++c) {
@@ -293,15 +307,18 @@ Eigen::MatrixXd TagSchurComplement(const NormalBlocks& n) {
   return s;
 }
 
-// The learned tags' joint covariance: (J^T J)^-1 restricted to the tags,
-// computed by eliminating the cameras (each camera's 6x6 block is
-// independent of the others: a Schur complement), so its cost grows with
-// the observations, not with the square of the frames.
+// The learned tags' joint covariance and, when adjusted, the intrinsics':
+// (J^T J)^-1 restricted to them, computed by eliminating the cameras (each
+// camera's 6x6 block is independent of the others: a Schur complement), so
+// its cost grows with the observations, not with the square of the frames.
+// With the intrinsics among the unknowns, the tags' covariance includes
+// what their uncertainty does to the map.
 void ComputeCovariance(ceres::Problem* problem, const std::vector<FrameState*>& frames, std::map<TagId, MapTag>* tags,
-                       int free_parameters, GlobalAdjustmentSummary* out) {
+                       double* intrinsics, int free_parameters, GlobalAdjustmentSummary* out) {
   TagCovariance result;
   const std::map<const double*, int> tag_column = LearnedTagColumns(problem, tags, &result.ids);
-  if (result.ids.empty()) {
+  const bool with_intrinsics = intrinsics != nullptr && problem->HasParameterBlock(intrinsics);
+  if (result.ids.empty() && !with_intrinsics) {
     out->covariance_note = "no learned tags: every target was held fixed";
     return;
   }
@@ -317,6 +334,7 @@ void ComputeCovariance(ceres::Problem* problem, const std::vector<FrameState*>& 
   for (auto& [id, tag] : *tags) {
     if (tag_column.count(tag.world_from_tag.data)) blocks.push_back(tag.world_from_tag.data);
   }
+  if (with_intrinsics) blocks.push_back(intrinsics);
   ceres::Problem::EvaluateOptions eval;
   eval.parameter_blocks = blocks;
   double cost = 0;
@@ -327,7 +345,8 @@ void ComputeCovariance(ceres::Problem* problem, const std::vector<FrameState*>& 
     return;
   }
   const int n_tags = 6 * static_cast<int>(result.ids.size());
-  const Eigen::LDLT<Eigen::MatrixXd> s_inverse(TagSchurComplement(AccumulateNormalBlocks(jacobian, cameras, n_tags)));
+  const int n_others = n_tags + (with_intrinsics ? 6 : 0);
+  const Eigen::LDLT<Eigen::MatrixXd> s_inverse(TagSchurComplement(AccumulateNormalBlocks(jacobian, cameras, n_others)));
   if (s_inverse.info() != Eigen::Success || s_inverse.vectorD().minCoeff() <= 0) {
     out->covariance_note = "the adjustment's covariance could not be computed (rank deficient)";
     return;
@@ -336,7 +355,13 @@ void ComputeCovariance(ceres::Problem* problem, const std::vector<FrameState*>& 
   // residual, sum r^2 / (m - n).
   const double dof = static_cast<double>(residuals.size()) - free_parameters;
   const double variance = dof > 0 ? 2.0 * cost / dof : 1.0;
-  result.covariance = s_inverse.solve(Eigen::MatrixXd::Identity(n_tags, n_tags)) * variance;
+  const Eigen::MatrixXd all = s_inverse.solve(Eigen::MatrixXd::Identity(n_others, n_others)) * variance;
+  if (with_intrinsics) out->intrinsics_covariance = all.bottomRightCorner<6, 6>();
+  if (result.ids.empty()) {
+    out->covariance_note = "no learned tags: every target was held fixed";
+    return;
+  }
+  result.covariance = all.topLeftCorner(n_tags, n_tags);
   out->covariance = std::move(result);
 }
 
@@ -483,7 +508,7 @@ GlobalAdjustmentSummary AdjustGlobally(const std::vector<FrameState*>& frames, s
     StoreIntrinsics(intrinsics, refine_camera);
     free_parameters += 6;
   }
-  if (options.compute_covariance) ComputeCovariance(&problem, frames, tags, free_parameters, &out);
+  if (options.compute_covariance) ComputeCovariance(&problem, frames, tags, adjusted_intrinsics, free_parameters, &out);
   out.covariance_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count();
   return out;
 }

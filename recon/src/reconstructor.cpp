@@ -722,6 +722,7 @@ void Reconstructor::AdjustFinally(const std::vector<FrameState*>& registered, Re
   result->global_adjustment_converged = summary.converged;
   result->covariance = summary.covariance;
   result->covariance_note = summary.covariance_note;
+  result->intrinsics_covariance = summary.intrinsics_covariance;
   result->global_adjustment_s = summary.solve_s;
   result->covariance_s = summary.covariance_s;
 }

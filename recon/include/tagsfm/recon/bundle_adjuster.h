@@ -94,6 +94,9 @@ struct GlobalAdjustmentSummary {
   double solve_s = 0, covariance_s = 0;
   std::optional<TagCovariance> covariance;
   std::string covariance_note;
+  // With the intrinsics adjusted: their covariance, in the order fx, fy,
+  // cx, cy (pixels), k1, k2.
+  std::optional<Eigen::Matrix<double, 6, 6>> intrinsics_covariance;
 };
 
 // Natural-feature points adjusted with the poses and tags (the hybrid): the

@@ -2,7 +2,6 @@
 // The state a reconstruction is made of, as plain values: frames with their
 // tag observations and poses, and the target map (tags as rigid squares of
 // known size, or corners held fixed from a known map).
-#include <array>
 #include <map>
 #include <optional>
 #include <string>
@@ -122,8 +121,12 @@ struct ReconstructionResult {
   bool global_adjustment_converged = false;
   int window_solves_failed = 0;
   int points_adjusted = 0;                   // feature points in the last adjustment with the targets
-  double points_adjustment_s = 0;              // sliding-window solves whose result was unusable (undone)
+  double points_adjustment_s = 0;
   bool intrinsics_refined = false;           // `camera` is the adjusted one
+  // With intrinsics_refined: the covariance of fx, fy, cx, cy (pixels), k1
+  // and k2 in the final adjustment (every pose and learned tag free; see
+  // intrinsics_check.h); absent when it could not be computed.
+  std::optional<Eigen::Matrix<double, 6, 6>> intrinsics_covariance;
   double global_adjustment_s = 0, covariance_s = 0;
   // Natural features triangulated from the final poses (empty with
   // --no-features); their ids in the result files start at kFirstFeaturePointId.
