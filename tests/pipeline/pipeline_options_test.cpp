@@ -30,7 +30,8 @@ TEST_F(PipelineOptionsFile, ValuesReachTheirStructsAndTheRestKeepDefaults) {
       "  tag_search: every_frame\n"
       "  detector: {quad_decimate: 1.5, refinement: apriltag}\n"
       "  tracker: {full_frame_every: 7}\n"
-      "  recon:\n    keyframe_min_rotation_deg: 2.5\n    pose: {max_rms_px: 3}\n    ba: {window_keyframes: 5}\n"
+      "  recon:\n    keyframe_min_rotation_deg: 2.5\n    tag_size_sigma_rel: 0.001\n    pose: {max_rms_px: 3}\n"
+      "    ba: {window_keyframes: 5}\n"
       "  features: {enabled: false, depth_range_factor: 3, extractor: {max_features: 500},\n"
       "             map: {max_neighbours: 5, triangulation: {min_views: 3}}}\n"
       "  feedback: {point_error_goal_m: 0.002}\n");
@@ -42,6 +43,7 @@ TEST_F(PipelineOptionsFile, ValuesReachTheirStructsAndTheRestKeepDefaults) {
   EXPECT_EQ(options->detector.threads, defaults.detector.threads);
   EXPECT_EQ(options->tracker.full_frame_every, 7);
   EXPECT_DOUBLE_EQ(options->recon.keyframe_min_rotation_deg, 2.5);
+  EXPECT_DOUBLE_EQ(options->recon.tag_size_sigma_rel, 0.001);
   EXPECT_DOUBLE_EQ(options->recon.pose.max_rms_px, 3.0);
   EXPECT_EQ(options->recon.ba.window_keyframes, 5);
   EXPECT_DOUBLE_EQ(options->recon.ba.huber_px, defaults.recon.ba.huber_px);
@@ -110,6 +112,7 @@ TEST_F(PipelineOptionsFile, TheDocumentedBlockReadsAndHoldsTheDefaults) {
   EXPECT_EQ(options->tracker.full_frame_every, defaults.tracker.full_frame_every);
   EXPECT_DOUBLE_EQ(options->tracker.entry_min_inflow_px, defaults.tracker.entry_min_inflow_px);
   EXPECT_DOUBLE_EQ(options->recon.keyframe_min_translation_ratio, defaults.recon.keyframe_min_translation_ratio);
+  EXPECT_DOUBLE_EQ(options->recon.tag_size_sigma_rel, defaults.recon.tag_size_sigma_rel);
   EXPECT_DOUBLE_EQ(options->recon.pose.ransac_threshold_px, defaults.recon.pose.ransac_threshold_px);
   EXPECT_EQ(options->recon.ba.window_keyframes, defaults.recon.ba.window_keyframes);
   EXPECT_EQ(options->features.extractor.max_features, defaults.features.extractor.max_features);
