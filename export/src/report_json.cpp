@@ -120,6 +120,7 @@ Status WriteReport(const std::filesystem::path& path, const ReconstructionResult
   report["skipped_frames"] = skipped;
   report["global_adjustment_converged"] = result.global_adjustment_converged;
   report["intrinsics_refined"] = result.intrinsics_refined;
+  if (result.intrinsics_refined) report["square_pixels"] = result.square_pixels;
   if (const std::optional<IntrinsicsUncertainty> u = JudgeIntrinsics(result, {})) {
     const std::array<double, 6>& s = u->sigma;
     report["intrinsics_sigma"] = {{"fx", s[0]}, {"fy", s[1]}, {"cx", s[2]}, {"cy", s[3]}, {"k1", s[4]}, {"k2", s[5]},

@@ -487,6 +487,12 @@ GlobalAdjustmentSummary AdjustGlobally(const std::vector<FrameState*>& frames, s
   double* adjusted_intrinsics = refine_camera ? intrinsics.data() : nullptr;
   int free_parameters = AddTargetResiduals(&problem, frames, tags, fx, fy, options.huber_px, adjusted_intrinsics);
   if (points && points->points) AddPointResiduals(&problem, frames, *points, fx, fy, adjusted_intrinsics);
+  if (adjusted_intrinsics && options.square_pixels && problem.HasParameterBlock(adjusted_intrinsics)) {
+    // 1e-3 px: a thousandth of any corner's noise, yet a normal matrix
+    // entry of only 1e6, which the covariance's factorisation takes.
+    intrinsics[0] = intrinsics[1] = 0.5 * (intrinsics[0] + intrinsics[1]);
+    problem.AddResidualBlock(SquarePixelTie::Create(1e-3), nullptr, adjusted_intrinsics);
+  }
   if (problem.NumResidualBlocks() == 0) {
     out.covariance_note = "nothing to adjust";
     return out;

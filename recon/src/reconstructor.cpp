@@ -716,9 +716,23 @@ void Reconstructor::AdjustFinally(const std::vector<FrameState*>& registered, Re
                       camera_.distortion.size() <= 5 &&
                       (camera_.distortion.size() < 3 || (camera_.distortion[2] == 0 && camera_.distortion[3] == 0)) &&
                       (camera_.distortion.size() < 5 || camera_.distortion[4] == 0);
-  const GlobalAdjustmentSummary summary =
-      AdjustGlobally(registered, &tags_, fx_, fy_, options_.ba, refine ? &camera_ : nullptr);
+  GlobalAdjustmentSummary summary = AdjustGlobally(registered, &tags_, fx_, fy_, options_.ba, refine ? &camera_ : nullptr);
+  // Square pixels unless the data say otherwise: fx and fy adjusted freely
+  // first; when they differ by no more than 3 sigma of their difference,
+  // again with fy tied to fx (one focal length: its sigma falls, and weak
+  // data can no longer make the pixels oblong).
+  if (refine && summary.intrinsics_covariance) {
+    const Eigen::Matrix<double, 6, 6>& c = *summary.intrinsics_covariance;
+    const double difference_sigma = std::sqrt(std::max(0.0, c(0, 0) + c(1, 1) - 2 * c(0, 1)));
+    if (std::abs(camera_.fx - camera_.fy) <= 3 * difference_sigma) {
+      BundleAdjusterOptions square = options_.ba;
+      square.square_pixels = true;
+      summary = AdjustGlobally(registered, &tags_, camera_.fx, camera_.fy, square, &camera_);
+      square_pixels_ = true;
+    }
+  }
   result->intrinsics_refined = refine;
+  result->square_pixels = square_pixels_;
   result->global_adjustment_converged = summary.converged;
   result->covariance = summary.covariance;
   result->covariance_note = summary.covariance_note;
@@ -771,6 +785,7 @@ void Reconstructor::AdjustWithPoints(const std::vector<FrameState*>& registered,
   terms.weight = corner_sigma / point_sigma;
   terms.huber_px = 2 * point_sigma;
   BundleAdjusterOptions options = options_.ba;
+  options.square_pixels = square_pixels_;
   options.compute_covariance = false;  // the targets' covariance is the tags-only adjustment's
   // 8 iterations: the points start at their triangulation, the poses at the
   // targets-only optimum; the 1280x720 box walk, box_small, wall_small and

@@ -83,6 +83,33 @@ TEST(ReplayCalibrateSlow, ReplayRefinesTheIntrinsicsInTheFinalAdjustment) {
     EXPECT_LT(std::abs(report["camera"][name].get<double>() - value), 3 * s) << name;
   }
   EXPECT_TRUE(report["intrinsics_unconstrained"].empty());
+  // The pixels are square and the data do not say otherwise: one focal length.
+  EXPECT_TRUE(report["square_pixels"].get<bool>());
+  EXPECT_NEAR(report["camera"]["fx"].get<double>(), report["camera"]["fy"].get<double>(), 1e-3);
+}
+
+// A camera whose pixels are 2 % taller than wide: the free fit's fx - fy is
+// far beyond its sigma, so both stay free (measured fx 500.40 +- 0.75, fy
+// 510.13 +- 0.70).
+TEST(ReplayCalibrateSlow, PixelsThatAreNotSquareStaySo) {
+  testing::TempDir scratch;
+  const fs::path rec = scratch.path() / "oblong";
+  ASSERT_EQ(Tagsfm("synth box --out " + rec.string() + " --frames 20 --width 640 --height 480 --fx 500 --fy 510 --seed 4"), 0);
+  auto info = ReadRecordingYaml(rec / "recording.yaml");
+  ASSERT_TRUE(info.has_value());
+  info->camera.reset();
+  ASSERT_TRUE(WriteFileAtomically(rec / "recording.yaml", RecordingYamlText(*info)).ok());
+  const fs::path out = scratch.path() / "out";
+  ASSERT_EQ(Tagsfm("replay " + rec.string() + " --no-features --out " + out.string()), 0);
+  auto text = ReadFileToString(out / "report.json");
+  ASSERT_TRUE(text.has_value());
+  const nlohmann::json report = nlohmann::json::parse(*text);
+  EXPECT_FALSE(report["square_pixels"].get<bool>());
+  const std::map<std::string, double> truth = {{"fx", 500}, {"fy", 510}};
+  for (const auto& [name, value] : truth) {
+    const double s = report["intrinsics_sigma"][name].get<double>();
+    EXPECT_LT(std::abs(report["camera"][name].get<double>() - value), 3 * s) << name;
+  }
 }
 
 // Frontal views of a flat wall from one distance: the focal length trades

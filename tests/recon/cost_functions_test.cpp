@@ -125,6 +125,14 @@ TEST(CostFunctions, TagEdgeLengthErrorDerivativesAndValue) {
   EXPECT_NEAR(residual, 10.082, 1e-3);
 }
 
+TEST(CostFunctions, SquarePixelTieDerivativesAndValue) {
+  double intrinsics[6] = {1000.2, 999.9, 640, 360, -0.05, 0.01};
+  ExpectDerivativesMatch(SquarePixelTie::Create(1e-3), {nullptr}, {intrinsics}, 1e-4);
+  double residual = 0;
+  ASSERT_TRUE(SquarePixelTie(1e-3)(intrinsics, &residual));
+  EXPECT_NEAR(residual, 300.0, 1e-6);  // 0.3 px over 1e-3
+}
+
 TEST(CostFunctions, ReprojectionErrorIsZeroAtTheTruthAndReadsInPixels) {
   PoseParams cam = SomePose(0.1, 0.2, 0.0, {0.0, 0.0, 2.0});
   double point[3] = {0.1, 0.2, 0.3};

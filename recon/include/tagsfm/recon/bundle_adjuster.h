@@ -39,6 +39,9 @@ struct BundleAdjusterOptions {
   // 2-core machine, no-map p95 4.5-4.9 ms with 1 thread, 4.7-5.9 ms with 2.
   int window_threads = 1;
   bool compute_covariance = true; // of the learned tags, after the global adjustment
+  // With the intrinsics adjusted: fy held equal to fx (SquarePixelTie). The
+  // reconstructor decides it from the data (Reconstructor::AdjustFinally).
+  bool square_pixels = false;
 
   Status Check() const;
 };

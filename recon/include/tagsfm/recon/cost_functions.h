@@ -208,6 +208,22 @@ struct PointPixelReprojectionError {
   double weight;
 };
 
+// Square pixels as a stiff pseudo-observation on the adjusted intrinsics
+// (fx - fy) / sigma: with sigma far below any pixel's noise, fy follows fx,
+// and the covariance keeps its six columns. Block intrinsics[6].
+struct SquarePixelTie {
+  explicit SquarePixelTie(double sigma_px) : sigma(sigma_px) {}
+  template <class T>
+  bool operator()(const T* intrinsics, T* residual) const {
+    residual[0] = (intrinsics[0] - intrinsics[1]) / T(sigma);
+    return true;
+  }
+  static ceres::CostFunction* Create(double sigma_px) {
+    return new ceres::AutoDiffCostFunction<SquarePixelTie, 1, 6>(new SquarePixelTie(sigma_px));
+  }
+  double sigma;
+};
+
 // Soft known-size constraint between two free corner points (the relaxed tag
 // model): (|a - b| - length) / sigma. Blocks corner_a[3], corner_b[3].
 struct TagEdgeLengthError {

@@ -123,6 +123,9 @@ struct ReconstructionResult {
   int points_adjusted = 0;                   // feature points in the last adjustment with the targets
   double points_adjustment_s = 0;
   bool intrinsics_refined = false;           // `camera` is the adjusted one
+  // With intrinsics_refined: fx and fy adjusted as one (the free fit's fx -
+  // fy was within 3 sigma of 0: the data do not say the pixels are not square).
+  bool square_pixels = false;
   // With intrinsics_refined: the covariance of fx, fy, cx, cy (pixels), k1
   // and k2 in the final adjustment (every pose and learned tag free; see
   // intrinsics_check.h); absent when it could not be computed.

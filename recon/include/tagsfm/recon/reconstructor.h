@@ -170,6 +170,9 @@ class Reconstructor {
   CameraModel camera_;
   TargetConfig targets_;
   ReconstructorOptions options_;
+  // The final adjustment found the pixels square (fy tied to fx in it and in
+  // the adjustment with the feature points).
+  bool square_pixels_ = false;
   double fx_, fy_;
   std::deque<FrameState> frames_;                 // stable addresses: the adjuster points into them
   std::map<TagId, MapTag> tags_;
