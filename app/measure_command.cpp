@@ -35,9 +35,11 @@ bool IsFeatureRef(const std::string& text) { return !text.empty() && (text[0] ==
 
 // A measurement with at least one feature point. The feature's covariance
 // is its triangulation's (the poses and a target taken as exact: both are
-// known far better than a point from a few rays).
+// known far better than a point from a few rays); the scale's own
+// uncertainty (`scale_sigma_rel`, what the images cannot see) adds
+// scale_sigma_rel * distance, as for targets.
 Result<Measurement> MeasureWithFeatures(const std::filesystem::path& dir, const std::string& a_text,
-                                        const std::string& b_text) {
+                                        const std::string& b_text, double scale_sigma_rel) {
   auto features = ReadFeaturePointsCsv(dir / "features.csv");
   if (!features) return features.error();
   std::optional<TargetCornerMap> targets;
@@ -77,9 +79,10 @@ Result<Measurement> MeasureWithFeatures(const std::filesystem::path& dir, const 
   m.distance_m = (m.a - m.b).norm();
   if (m.distance_m > 0) {
     const Eigen::Vector3d u = (m.a - m.b) / m.distance_m;
-    m.sigma_m = std::sqrt(std::max(0.0, u.dot((ca + cb) * u)));
+    const double scale_sigma_m = scale_sigma_rel * m.distance_m;
+    m.sigma_m = std::sqrt(std::max(0.0, u.dot((ca + cb) * u)) + scale_sigma_m * scale_sigma_m);
   }
-  m.note = "sigma from the feature points' triangulation; poses and targets taken as exact";
+  m.note = "sigma from the feature points' triangulation and the scale's sigma; poses and targets taken as exact";
   return m;
 }
 
@@ -135,7 +138,7 @@ int RunMeasure(const MeasureArgs& args) {
     return 2;
   }
   if (IsFeatureRef(args.a) || IsFeatureRef(args.b)) {
-    auto m = MeasureWithFeatures(dir, args.a, args.b);
+    auto m = MeasureWithFeatures(dir, args.a, args.b, ScaleSigmaRel(dir));
     if (!m) {
       spdlog::error("{}", m.error().message);
       return 1;

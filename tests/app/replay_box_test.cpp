@@ -174,6 +174,14 @@ TEST(ReplayBoxSlow, FeaturePointsLieOnTheTrueSurfaces) {
   const nlohmann::json mj = ReadJson(scratch.path() / "stdout.txt");
   EXPECT_NEAR(mj["distance_m"].get<double>(), (first->second.position - second->second.position).norm(), 1e-12);
   EXPECT_GT(mj["sigma_m"].get<double>(), 0.0);
+  // Its sigma: the two points' covariances along the line, and the print
+  // tolerance's share (report.json's scale.sigma_rel times the length), the
+  // scale being what the rays cannot see.
+  const Eigen::Vector3d u = (first->second.position - second->second.position).normalized();
+  const double along = u.dot((first->second.covariance + second->second.covariance) * u);
+  const double scale_part = report["scale"]["sigma_rel"].get<double>() * mj["distance_m"].get<double>();
+  EXPECT_GT(scale_part, 0.0);
+  EXPECT_NEAR(std::pow(mj["sigma_m"].get<double>(), 2), along + scale_part * scale_part, 1e-6 * (along + scale_part * scale_part));
   const CommandRun bad = Tagsfm("measure " + out.string() + " p1 p2", scratch.path());
   EXPECT_NE(bad.exit_code, 0);
   EXPECT_NE(bad.err.find("no feature point 1"), std::string::npos) << bad.err;
