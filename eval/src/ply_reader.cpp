@@ -161,6 +161,9 @@ Result<std::vector<Eigen::Vector3d>> ReadPlyPoints(const std::filesystem::path& 
     if (is_vertex && (xyz_index[0] < 0 || xyz_index[1] < 0 || xyz_index[2] < 0)) {
       return MakeError(file + ": the vertex element lacks a scalar x, y or z property");
     }
+    // An element without properties has nothing in the body, however many
+    // it claims: its count is not looped over (10^15 of them hung the reader).
+    if (!is_vertex && element.properties.empty()) continue;
     std::vector<Eigen::Vector3d> points;
     // The header's count is not trusted for the allocation: a point takes at least a byte.
     if (is_vertex) points.reserve(static_cast<size_t>(std::min<long long>(element.count, static_cast<long long>(text->size()))));

@@ -53,5 +53,18 @@ TEST(FuzzFindings, PlyListCountOfFloatTypeOutOfRangeIsAnError) {
   EXPECT_NE(points.error().message.find("extra"), std::string::npos) << points.error().message;
 }
 
+TEST(FuzzFindings, PlyElementWithoutPropertiesAndAHugeCountIsSkippedNotLoopedOver) {
+  // An element with no properties claiming 2.5 * 10^15 items: the reader
+  // looped over them reading nothing (a libFuzzer timeout, 2026-12-04).
+  testing::TempDir tmp;
+  const auto path = tmp.path() / "cloud.ply";
+  std::ofstream(path) << "ply\nformat ascii 1.0\nelement face 2544444444444444\nelement vertex 1\nproperty float x\n"
+                         "property float y\nproperty float z\nend_header\n1 2 3\n";
+  auto points = ReadPlyPoints(path);
+  ASSERT_TRUE(points.has_value()) << points.error().message;
+  ASSERT_EQ(points->size(), 1u);
+  EXPECT_EQ((*points)[0], Eigen::Vector3d(1, 2, 3));
+}
+
 }  // namespace
 }  // namespace tagsfm::eval
