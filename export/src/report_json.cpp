@@ -51,10 +51,9 @@ nlohmann::json ScaleJson(const MapScale& scale) {
   return out;
 }
 
-}  // namespace
-
-Status WriteReport(const std::filesystem::path& path, const ReconstructionResult& result, const RunStats& stats) {
-  nlohmann::json report;
+// Frames and targets: how many were read, registered, seen and mapped, and
+// why the others were not.
+void AddFramesAndTargets(const ReconstructionResult& result, const RunStats& stats, nlohmann::json* report) {
   int registered = 0;
   std::map<TagId, bool> seen;
   nlohmann::json unregistered = nlohmann::json::array();
@@ -68,21 +67,28 @@ Status WriteReport(const std::filesystem::path& path, const ReconstructionResult
   }
   nlohmann::json skipped = nlohmann::json::array();
   for (const auto& [frame, why] : stats.skipped) skipped.push_back({{"frame", frame}, {"reason", why}});
-  report["frames"] = stats.frames;
-  report["registered_frames"] = registered;
-  report["frames_skipped"] = stats.frames_skipped;
-  report["targets_seen"] = seen.size();
-  report["targets_mapped"] = result.tags.size();
   nlohmann::json unmapped = nlohmann::json::array();
   for (const auto& [id, why] : result.unmapped_tags) unmapped.push_back({{"tag", id}, {"reason", why}});
-  report["unmapped_targets"] = unmapped;  // seen but not mapped, with why
-  report["scale"] = ScaleJson(result.scale);
-  report["points"] = 4 * result.tags.size() + result.feature_points.size();
-  report["feature_points"] = result.feature_points.size();
-  report["observations"] = result.observations;
-  report["outlier_observations"] = result.outlier_observations;  // tag views left out of the adjustment
-  report["tags_remapped"] = result.tags_remapped;                // learned tags mapped again while running
-  // All observations: target corners and feature points together.
+  nlohmann::json& r = *report;
+  r["frames"] = stats.frames;
+  r["registered_frames"] = registered;
+  r["frames_skipped"] = stats.frames_skipped;
+  r["unregistered_frames"] = unregistered;
+  r["skipped_frames"] = skipped;
+  r["targets_seen"] = seen.size();
+  r["targets_mapped"] = result.tags.size();
+  r["unmapped_targets"] = unmapped;  // seen but not mapped, with why
+}
+
+// Points, observations and the reprojection RMS of the target corners, the
+// feature points and all observations together.
+void AddPointsAndReprojection(const ReconstructionResult& result, nlohmann::json* report) {
+  nlohmann::json& r = *report;
+  r["points"] = 4 * result.tags.size() + result.feature_points.size();
+  r["feature_points"] = result.feature_points.size();
+  r["observations"] = result.observations;
+  r["outlier_observations"] = result.outlier_observations;  // tag views left out of the adjustment
+  r["tags_remapped"] = result.tags_remapped;                // learned tags mapped again while running
   double sum_sq = result.reprojection_rms_px * result.reprojection_rms_px * result.observations;
   double feature_sum_sq = 0;
   size_t count = static_cast<size_t>(result.observations), feature_count = 0;
@@ -92,53 +98,80 @@ Status WriteReport(const std::filesystem::path& path, const ReconstructionResult
   }
   sum_sq += feature_sum_sq;
   count += feature_count;
-  report["reprojection_rms_px"] = count ? std::sqrt(sum_sq / static_cast<double>(count)) : 0.0;
-  report["feature_reprojection_rms_px"] = feature_count ? std::sqrt(feature_sum_sq / static_cast<double>(feature_count)) : 0.0;
-  report["target_reprojection_rms_px"] = result.reprojection_rms_px;
-  report["runtime_s"] = stats.runtime_s;
-  report["frame_latency_ms"] = LatencyJson(stats.frame_latency_ms);
-  if (!stats.detection_ms.empty()) report["detection_ms"] = LatencyJson(stats.detection_ms);
+  r["reprojection_rms_px"] = count ? std::sqrt(sum_sq / static_cast<double>(count)) : 0.0;
+  r["feature_reprojection_rms_px"] = feature_count ? std::sqrt(feature_sum_sq / static_cast<double>(feature_count)) : 0.0;
+  r["target_reprojection_rms_px"] = result.reprojection_rms_px;
+}
+
+// The run's timings, tag search and feature stage.
+void AddRunStatistics(const RunStats& stats, nlohmann::json* report) {
+  nlohmann::json& r = *report;
+  r["runtime_s"] = stats.runtime_s;
+  r["frame_latency_ms"] = LatencyJson(stats.frame_latency_ms);
+  if (!stats.detection_ms.empty()) r["detection_ms"] = LatencyJson(stats.detection_ms);
   if (!stats.tag_search.empty()) {
-    report["tag_search"] = {{"mode", stats.tag_search},
-                            {"full_frame_detections", stats.full_frame_detections},
-                            {"recoveries", stats.tag_search_recoveries},
-                            {"fine_full_frame_detections", stats.fine_full_frame_detections}};
+    r["tag_search"] = {{"mode", stats.tag_search},
+                       {"full_frame_detections", stats.full_frame_detections},
+                       {"recoveries", stats.tag_search_recoveries},
+                       {"fine_full_frame_detections", stats.fine_full_frame_detections}};
   }
   if (!stats.feature_ms.empty()) {
-    report["feature_keyframes"] = stats.feature_ms.size();
-    report["feature_ms"] = LatencyJson(stats.feature_ms);
-    report["triangulation_s"] = stats.triangulation_s;
-    report["feature_work_dropped"] = stats.feature_work_dropped;
-    report["feature_keyframes_rematched"] = stats.feature_keyframes_rematched;
-    report["feature_triangulation"] = FeatureTriangulationJson(stats.feature_triangulation);
+    r["feature_keyframes"] = stats.feature_ms.size();
+    r["feature_ms"] = LatencyJson(stats.feature_ms);
+    r["triangulation_s"] = stats.triangulation_s;
+    r["feature_work_dropped"] = stats.feature_work_dropped;
+    r["feature_keyframes_rematched"] = stats.feature_keyframes_rematched;
+    r["feature_triangulation"] = FeatureTriangulationJson(stats.feature_triangulation);
   }
-  report["peak_rss_mb"] = stats.peak_rss_mb;
-  report["mode"] = stats.mode;
-  report["scale_kind"] = stats.mode.rfind("sfm alone", 0) == 0 ? "arbitrary" : "metric";  // targets give metres, SfM alone not
-  report["pose_methods"] = result.pose_method_counts;
-  report["unregistered_frames"] = unregistered;
-  report["skipped_frames"] = skipped;
-  report["global_adjustment_converged"] = result.global_adjustment_converged;
-  report["intrinsics_refined"] = result.intrinsics_refined;
-  if (result.intrinsics_refined) report["square_pixels"] = result.square_pixels;
+  r["peak_rss_mb"] = stats.peak_rss_mb;
+  r["mode"] = stats.mode;
+  r["scale_kind"] = stats.mode.rfind("sfm alone", 0) == 0 ? "arbitrary" : "metric";  // targets give metres, SfM alone not
+}
+
+// The camera, and with refined intrinsics their sigma and verdict
+// (recon/intrinsics_check.h).
+void AddCamera(const ReconstructionResult& result, nlohmann::json* report) {
+  nlohmann::json& r = *report;
+  const CameraModel& c = result.camera;
+  r["camera"] = {{"model", CameraModel::KindName(c.kind)}, {"width", c.width}, {"height", c.height}, {"fx", c.fx},
+                 {"fy", c.fy}, {"cx", c.cx}, {"cy", c.cy}, {"distortion", c.distortion}};
+  r["intrinsics_refined"] = result.intrinsics_refined;
+  if (result.intrinsics_refined) r["square_pixels"] = result.square_pixels;
   if (const std::optional<IntrinsicsUncertainty> u = JudgeIntrinsics(result, {})) {
     const std::array<double, 6>& s = u->sigma;
-    report["intrinsics_sigma"] = {{"fx", s[0]}, {"fy", s[1]}, {"cx", s[2]}, {"cy", s[3]}, {"k1", s[4]}, {"k2", s[5]},
-                                  {"observed_radius_px", u->observed_radius_px},
-                                  {"distortion_px", u->distortion_sigma_px},
-                                  {"distortion_at_corners_px", u->distortion_sigma_corner_px}};
-    report["intrinsics_unconstrained"] = u->unconstrained;  // empty: the views constrain them
+    r["intrinsics_sigma"] = {{"fx", s[0]}, {"fy", s[1]}, {"cx", s[2]}, {"cy", s[3]}, {"k1", s[4]}, {"k2", s[5]},
+                             {"observed_radius_px", u->observed_radius_px},
+                             {"distortion_px", u->distortion_sigma_px},
+                             {"distortion_at_corners_px", u->distortion_sigma_corner_px}};
+    r["intrinsics_unconstrained"] = u->unconstrained;  // empty: the views constrain them
   }
-  report["global_adjustment_s"] = result.global_adjustment_s;
-  report["covariance_s"] = result.covariance_s;
-  report["points_adjusted"] = result.points_adjusted;          // feature points adjusted with the targets
-  report["points_adjustment_s"] = result.points_adjustment_s;
-  report["window_solves_failed"] = result.window_solves_failed;  // undone, see SlidingWindowBundleAdjuster::Solve
-  if (result.anchor_tag) report["anchor_tag"] = *result.anchor_tag;
-  report["covariance"] = result.covariance ? "targets_cov.csv" : result.covariance_note;
-  report["camera"] = {{"model", CameraModel::KindName(result.camera.kind)}, {"width", result.camera.width},
-                      {"height", result.camera.height}, {"fx", result.camera.fx}, {"fy", result.camera.fy},
-                      {"cx", result.camera.cx}, {"cy", result.camera.cy}, {"distortion", result.camera.distortion}};
+}
+
+// The final adjustments: convergence, times, the covariance's file or why
+// there is none.
+void AddAdjustment(const ReconstructionResult& result, nlohmann::json* report) {
+  nlohmann::json& r = *report;
+  r["pose_methods"] = result.pose_method_counts;
+  r["global_adjustment_converged"] = result.global_adjustment_converged;
+  r["global_adjustment_s"] = result.global_adjustment_s;
+  r["covariance_s"] = result.covariance_s;
+  r["points_adjusted"] = result.points_adjusted;          // feature points adjusted with the targets
+  r["points_adjustment_s"] = result.points_adjustment_s;
+  r["window_solves_failed"] = result.window_solves_failed;  // undone, see SlidingWindowBundleAdjuster::Solve
+  if (result.anchor_tag) r["anchor_tag"] = *result.anchor_tag;
+  r["covariance"] = result.covariance ? "targets_cov.csv" : result.covariance_note;
+}
+
+}  // namespace
+
+Status WriteReport(const std::filesystem::path& path, const ReconstructionResult& result, const RunStats& stats) {
+  nlohmann::json report;
+  AddFramesAndTargets(result, stats, &report);
+  report["scale"] = ScaleJson(result.scale);
+  AddPointsAndReprojection(result, &report);
+  AddRunStatistics(stats, &report);
+  AddAdjustment(result, &report);
+  AddCamera(result, &report);
   return WriteFileAtomically(path, report.dump(2) + "\n");
 }
 
