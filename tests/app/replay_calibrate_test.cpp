@@ -21,14 +21,19 @@ namespace {
 
 namespace fs = std::filesystem;
 
+// Takes the camera block out of `rec`'s recording.yaml: tagsfm must calibrate.
+void DropCameraBlock(const fs::path& rec) {
+  auto info = ReadRecordingYaml(rec / "recording.yaml");
+  ASSERT_TRUE(info.has_value());
+  info->camera.reset();
+  ASSERT_TRUE(WriteFileAtomically(rec / "recording.yaml", RecordingYamlText(*info)).ok());
+}
+
 // box_small without its camera block (truth: fx = fy = 500, cx 319.5, cy 239.5).
 fs::path CopyWithoutCamera(const fs::path& scratch) {
   const fs::path rec = scratch / "rec";
   fs::copy(testing::RecordingsDir() / "box_small", rec, fs::copy_options::recursive);
-  auto info = ReadRecordingYaml(rec / "recording.yaml");
-  EXPECT_TRUE(info.has_value());
-  info->camera.reset();
-  EXPECT_TRUE(WriteFileAtomically(rec / "recording.yaml", RecordingYamlText(*info)).ok());
+  DropCameraBlock(rec);
   return rec;
 }
 
@@ -95,10 +100,8 @@ TEST(ReplayCalibrateSlow, PixelsThatAreNotSquareStaySo) {
   testing::TempDir scratch;
   const fs::path rec = scratch.path() / "oblong";
   ASSERT_EQ(Tagsfm("synth box --out " + rec.string() + " --frames 20 --width 640 --height 480 --fx 500 --fy 510 --seed 4"), 0);
-  auto info = ReadRecordingYaml(rec / "recording.yaml");
-  ASSERT_TRUE(info.has_value());
-  info->camera.reset();
-  ASSERT_TRUE(WriteFileAtomically(rec / "recording.yaml", RecordingYamlText(*info)).ok());
+  DropCameraBlock(rec);
+  if (::testing::Test::HasFatalFailure()) return;
   const fs::path out = scratch.path() / "out";
   ASSERT_EQ(Tagsfm("replay " + rec.string() + " --no-features --out " + out.string()), 0);
   auto text = ReadFileToString(out / "report.json");
@@ -120,10 +123,8 @@ TEST(ReplayCalibrateSlow, CalibrateRefusesViewsThatDoNotConstrainTheFocalLength)
   ASSERT_EQ(Tagsfm("synth wall --out " + rec.string() + " --frames 8 --width 640 --height 480 --fx 500 "
                    "--distortion=-0.05,0,0,0 --azimuth 3 --distance 1.0,1.05 --seed 5"),
             0);
-  auto info = ReadRecordingYaml(rec / "recording.yaml");
-  ASSERT_TRUE(info.has_value());
-  info->camera.reset();
-  ASSERT_TRUE(WriteFileAtomically(rec / "recording.yaml", RecordingYamlText(*info)).ok());
+  DropCameraBlock(rec);
+  if (::testing::Test::HasFatalFailure()) return;
   const fs::path log = scratch.path() / "calibrate.log";
   const int status = std::system((testing::TagsfmExe().string() + " calibrate " + rec.string() + " > " + log.string() + " 2>&1").c_str());
   ASSERT_TRUE(WIFEXITED(status));
