@@ -6,13 +6,10 @@
 #include <utility>
 #include <sstream>
 
-#include <ceres/ceres.h>
 #include <Eigen/Eigenvalues>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/core/eigen.hpp>
 
-#include "tagsfm/recon/cost_functions.h"
-#include "tagsfm/recon/pose_params.h"
 #include "tagsfm/recon/tag_geometry.h"
 
 namespace tagsfm {
@@ -233,106 +230,6 @@ Status PoseEstimatorOptions::Check() const {
   return Status::Ok();
 }
 
-Rigid3d RefinePose(const std::vector<Eigen::Vector3d>& points_in_world, const std::vector<Eigen::Vector2d>& normalized,
-                   const std::vector<int>& use, double fx, double fy, const Rigid3d& initial, double huber_px,
-                   int max_iterations) {
-  // A solver's degenerate sample can hand back a NaN rotation; Ceres would
-  // abort on its manifold's Jacobian. Returned as it came, it has no
-  // inliers and fails the candidate's checks.
-  if (!IsFinite(initial)) return initial;
-  PoseParams pose(initial);
-  ceres::Problem::Options problem_options;
-  problem_options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
-  ceres::Problem problem(problem_options);
-  ceres::HuberLoss loss(huber_px);
-  for (int i : use) {
-    problem.AddResidualBlock(FixedPointReprojectionError::Create(normalized[i], points_in_world[i], fx, fy), &loss,
-                             pose.data);
-  }
-  problem.SetManifold(pose.data, new PoseManifold);
-  ceres::Solver::Options options;
-  options.linear_solver_type = ceres::DENSE_QR;
-  options.max_num_iterations = max_iterations;
-  options.logging_type = ceres::SILENT;
-  options.num_threads = 1;
-  options.function_tolerance = 1e-10;
-  options.parameter_tolerance = 1e-10;
-  ceres::Solver::Summary summary;
-  ceres::Solve(options, &problem, &summary);
-  const Rigid3d refined = pose.ToRigid();
-  if (!summary.IsSolutionUsable() || !refined.translation.allFinite()) return initial;
-  return refined;
-}
-
-namespace {
-
-// Gauss-Newton with Levenberg damping on a tag's four corners, in normalised
-// coordinates. The rotation is updated on the left by a small rotation
-// vector, so the refinement has no singular pose (OpenCV's solvePnPRefineLM
-// works on the Rodrigues vector and was seen to wander off an exact start at
-// a 180 degree rotation, which is exactly how a tag facing the camera sits).
-// Returns the sum of squared normalised errors after refinement.
-double RefineTagPose(const std::array<Eigen::Vector3d, 4>& corners_in_tag, const std::array<Eigen::Vector2d, 4>& observed,
-                     Rigid3d* cam_from_tag) {
-  auto cost = [&](const Rigid3d& pose) {
-    double sum = 0;
-    for (int k = 0; k < 4; ++k) {
-      const Eigen::Vector3d p = pose * corners_in_tag[k];
-      if (!(p.z() > 0)) return std::numeric_limits<double>::infinity();
-      sum += (p.hnormalized() - observed[k]).squaredNorm();
-    }
-    return sum;
-  };
-  double current = cost(*cam_from_tag);
-  double lambda = 1e-6;
-  for (int iteration = 0; iteration < 30 && std::isfinite(current) && current > 0; ++iteration) {
-    Eigen::Matrix<double, 6, 6> jtj = Eigen::Matrix<double, 6, 6>::Zero();
-    Eigen::Matrix<double, 6, 1> jtr = Eigen::Matrix<double, 6, 1>::Zero();
-    for (int k = 0; k < 4; ++k) {
-      const Eigen::Vector3d rotated = cam_from_tag->rotation * corners_in_tag[k];
-      const Eigen::Vector3d p = rotated + cam_from_tag->translation;
-      const double iz = 1.0 / p.z();
-      Eigen::Matrix<double, 2, 3> d_proj;
-      d_proj << iz, 0, -p.x() * iz * iz, 0, iz, -p.y() * iz * iz;
-      Eigen::Matrix<double, 3, 6> d_point;
-      // p' = exp(w) R X + t + dt  =>  dp/dw = -[R X]x, dp/dt = I.
-      d_point << 0, rotated.z(), -rotated.y(), 1, 0, 0,  //
-          -rotated.z(), 0, rotated.x(), 0, 1, 0,         //
-          rotated.y(), -rotated.x(), 0, 0, 0, 1;
-      const Eigen::Matrix<double, 2, 6> j = d_proj * d_point;
-      const Eigen::Vector2d r = p.hnormalized() - observed[k];
-      jtj += j.transpose() * j;
-      jtr += j.transpose() * r;
-    }
-    bool improved = false;
-    while (lambda < 1e6) {
-      Eigen::Matrix<double, 6, 6> damped = jtj;
-      damped.diagonal() *= 1.0 + lambda;
-      const Eigen::Matrix<double, 6, 1> step = -damped.ldlt().solve(jtr);
-      if (!step.allFinite()) break;
-      const Eigen::Vector3d w = step.head<3>();
-      const double angle = w.norm();
-      const Eigen::Quaterniond dq =
-          angle > 0 ? Eigen::Quaterniond(Eigen::AngleAxisd(angle, w / angle)) : Eigen::Quaterniond::Identity();
-      const Rigid3d trial(dq * cam_from_tag->rotation, cam_from_tag->translation + step.tail<3>());
-      const double trial_cost = cost(trial);
-      if (trial_cost < current) {
-        const bool converged = current - trial_cost < 1e-12 * current;
-        *cam_from_tag = trial;
-        current = trial_cost;
-        lambda = std::max(lambda * 0.1, 1e-9);
-        improved = !converged;
-        break;
-      }
-      lambda *= 10;
-    }
-    if (!improved) break;
-  }
-  return current;
-}
-
-}  // namespace
-
 std::vector<Rigid3d> TagPoseCandidates(const std::array<Eigen::Vector2d, 4>& normalized, double size_m) {
   // IPPE is solved in the tag frame turned 180 degrees about x: a tag facing
   // the camera is then near the identity rotation. In the tag's own frame
@@ -343,7 +240,9 @@ std::vector<Rigid3d> TagPoseCandidates(const std::array<Eigen::Vector2d, 4>& nor
   const Eigen::Quaterniond turned_from_tag(Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitX()));
   std::vector<cv::Point3d> object;
   std::vector<cv::Point2d> image;
-  std::array<Eigen::Vector3d, 4> corners_in_tag;
+  std::vector<Eigen::Vector3d> corners_in_tag(4);
+  const std::vector<Eigen::Vector2d> observed(normalized.begin(), normalized.end());
+  const std::vector<int> all_four{0, 1, 2, 3};
   for (int k = 0; k < 4; ++k) {
     corners_in_tag[k] = TagCornerInTag(k, size_m);
     const Eigen::Vector3d turned = turned_from_tag * corners_in_tag[k];
@@ -365,7 +264,9 @@ std::vector<Rigid3d> TagPoseCandidates(const std::array<Eigen::Vector2d, 4>& nor
     const Rigid3d cam_from_turned = FromRvecTvec(rvecs[i], tvecs[i]);
     Rigid3d pose(cam_from_turned.rotation * turned_from_tag, cam_from_turned.translation);
     if (!IsFinite(pose) || !(pose.translation.z() > 0)) continue;
-    const double error = RefineTagPose(corners_in_tag, normalized, &pose);
+    // Plain least squares in normalised coordinates: four corners, no outliers to bound.
+    double error = 0;
+    pose = RefinePose(corners_in_tag, observed, all_four, 1.0, 1.0, pose, 0.0, 30, &error);
     if (std::isfinite(error) && IsFinite(pose) && pose.translation.z() > 0) refined.emplace_back(error, pose);
   }
   std::stable_sort(refined.begin(), refined.end(), [](const auto& a, const auto& b) { return a.first < b.first; });

@@ -73,11 +73,13 @@ PoseResult EstimatePose(const std::vector<Eigen::Vector3d>& points_in_world,
                         const std::vector<Eigen::Vector2d>& normalized, double fx, double fy,
                         const std::optional<Rigid3d>& previous, const PoseEstimatorOptions& options);
 
-// Refines a pose on fixed points with a Huber loss (LM); returns the refined
-// pose (a non-finite `initial` comes back unchanged).
+// Refines a pose on fixed points `use` with a Huber loss on the pixel error
+// (huber_px <= 0: plain least squares), Levenberg-Marquardt; returns the
+// refined pose (a non-finite `initial`, or one that puts a point behind the
+// camera, comes back unchanged). `final_cost`: half the sum of the loss.
 Rigid3d RefinePose(const std::vector<Eigen::Vector3d>& points_in_world, const std::vector<Eigen::Vector2d>& normalized,
                    const std::vector<int>& use, double fx, double fy, const Rigid3d& initial, double huber_px,
-                   int max_iterations);
+                   int max_iterations, double* final_cost = nullptr);
 
 // The corners' noise per axis in pixels, measured from the tags' shapes
 // alone: each tag's own pose (known size, 6 parameters) fits its 8 corner
