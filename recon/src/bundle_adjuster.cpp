@@ -45,21 +45,22 @@ void AddPoseBlock(ceres::Problem* problem, PoseParams* pose) {
 }
 
 // Adds the residual blocks of one observation; returns how many.
-int AddTagResiduals(ceres::Problem* problem, FrameState* frame, const TagObservation& obs, MapTag* tag, double fx,
-                    double fy, double huber_px) {
+// `world_from_tag`: the learned tag's parameter block (unused for a known tag).
+int AddTagResiduals(ceres::Problem* problem, PoseParams* cam_from_world, const TagObservation& obs, const MapTag& tag,
+                    PoseParams* world_from_tag, double fx, double fy, double huber_px) {
   ceres::LossFunction* loss = SharedLoss(huber_px);
   // A whole tag's block holds four corners: its squared error is ~4 times a
   // corner's, so its robust scale is twice a corner's.
   ceres::LossFunction* tag_loss = SharedLoss(2 * huber_px);
-  if (tag->known) {
+  if (tag.known) {
     for (int k = 0; k < 4; ++k) {
-      problem->AddResidualBlock(FixedPointReprojectionError::Create(obs.normalized[k], tag->known_corners[k], fx, fy),
-                                loss, frame->cam_from_world.data);
+      problem->AddResidualBlock(FixedPointReprojectionError::Create(obs.normalized[k], tag.known_corners[k], fx, fy),
+                                loss, cam_from_world->data);
     }
     return 4;
   }
-  problem->AddResidualBlock(TagReprojectionError::Create(obs.normalized, tag->size_m, fx, fy), tag_loss,
-                            frame->cam_from_world.data, tag->world_from_tag.data);
+  problem->AddResidualBlock(TagReprojectionError::Create(obs.normalized, tag.size_m, fx, fy), tag_loss,
+                            cam_from_world->data, world_from_tag->data);
   return 1;
 }
 
@@ -116,81 +117,98 @@ SlidingWindowBundleAdjuster::~SlidingWindowBundleAdjuster() = default;
 
 size_t SlidingWindowBundleAdjuster::residual_blocks() const { return static_cast<size_t>(problem_->NumResidualBlocks()); }
 
-void SlidingWindowBundleAdjuster::AddObservation(FrameState* frame, const TagObservation& obs, MapTag* tag) {
-  if (!tag->known && !tags_in_problem_.count(tag->id)) {
-    AddPoseBlock(problem_.get(), &tag->world_from_tag);
-    if (tag->anchor) {
-      problem_->SetParameterBlockConstant(tag->world_from_tag.data);
+void SlidingWindowBundleAdjuster::AddObservation(Keyframe* keyframe, const TagObservation& obs, const MapTag& tag) {
+  MapTag* learned = nullptr;
+  if (!tag.known) {
+    auto [it, inserted] = learned_tags_.emplace(tag.id, tag);
+    learned = &it->second;
+    if (inserted) {
+      AddPoseBlock(problem_.get(), &learned->world_from_tag);
+      if (tag.anchor) problem_->SetParameterBlockConstant(learned->world_from_tag.data);
     }
-    tags_in_problem_[tag->id] = tag;
   }
-  AddTagResiduals(problem_.get(), frame, obs, tag, fx_, fy_, options_.huber_px);
-  ++residuals_per_tag_[tag->id];  // observations of the tag in the window
-  tags_per_frame_[frame].push_back(tag->id);
+  AddTagResiduals(problem_.get(), &keyframe->cam_from_world, obs, tag, learned ? &learned->world_from_tag : nullptr,
+                  fx_, fy_, options_.huber_px);
+  ++residuals_per_tag_[tag.id];  // views of the tag in the window
+  keyframe->in_problem.push_back(tag.id);
 }
 
-void SlidingWindowBundleAdjuster::AddKeyframe(FrameState* frame, std::map<TagId, MapTag>* tags) {
-  map_ = tags;
+void SlidingWindowBundleAdjuster::AddKeyframe(const FrameState& frame, const std::map<TagId, MapTag>& tags) {
   if (window_.size() >= static_cast<size_t>(options_.window_keyframes)) RemoveOldest();
-  AddPoseBlock(problem_.get(), &frame->cam_from_world);
-  window_.push_back(frame);
-  for (const auto& obs : frame->tags) {
-    auto it = tags->find(obs.id);
-    if (it != tags->end() && !obs.outlier) AddObservation(frame, obs, &it->second);
+  Keyframe& keyframe = window_.emplace_back();
+  keyframe.frame = frame.frame;
+  keyframe.cam_from_world = frame.cam_from_world;
+  keyframe.views = frame.tags;
+  AddPoseBlock(problem_.get(), &keyframe.cam_from_world);
+  for (const auto& obs : keyframe.views) {
+    auto it = tags.find(obs.id);
+    if (it == tags.end() || obs.outlier) continue;
+    // A tag already in the window is adjusted there: the window's copy is the newer.
+    auto in_window = learned_tags_.find(obs.id);
+    AddObservation(&keyframe, obs, in_window != learned_tags_.end() ? in_window->second : it->second);
   }
   HoldOldestFixed();
 }
 
-void SlidingWindowBundleAdjuster::AddTag(MapTag* tag) {
-  for (FrameState* frame : window_) {
-    const TagObservation* obs = frame->Find(tag->id);
-    if (obs && !obs->outlier) AddObservation(frame, *obs, tag);
+void SlidingWindowBundleAdjuster::AddTag(const MapTag& tag) {
+  for (Keyframe& keyframe : window_) {
+    for (const TagObservation& obs : keyframe.views) {
+      if (obs.id == tag.id && !obs.outlier) AddObservation(&keyframe, obs, tag);
+    }
   }
 }
 
-void SlidingWindowBundleAdjuster::ReplaceTag(MapTag* tag, const std::vector<FrameState*>& fitted) {
-  if (tags_in_problem_.erase(tag->id) > 0) problem_->RemoveParameterBlock(tag->world_from_tag.data);  // and its residuals
-  residuals_per_tag_.erase(tag->id);
-  for (auto& [frame, ids] : tags_per_frame_) ids.erase(std::remove(ids.begin(), ids.end(), tag->id), ids.end());
-  for (FrameState* frame : window_) {
-    for (TagObservation& obs : frame->tags) {
-      if (obs.id != tag->id) continue;
-      obs.outlier = std::find(fitted.begin(), fitted.end(), frame) == fitted.end();
-      if (!obs.outlier) AddObservation(frame, obs, tag);
+std::vector<FrameId> SlidingWindowBundleAdjuster::ReplaceTag(const MapTag& tag, const std::vector<FrameId>& fitted) {
+  auto learned = learned_tags_.find(tag.id);
+  if (learned != learned_tags_.end()) {
+    problem_->RemoveParameterBlock(learned->second.world_from_tag.data);  // and its residuals
+    learned_tags_.erase(learned);
+  }
+  residuals_per_tag_.erase(tag.id);
+  std::vector<FrameId> outliers;
+  for (Keyframe& keyframe : window_) {
+    auto& ids = keyframe.in_problem;
+    ids.erase(std::remove(ids.begin(), ids.end(), tag.id), ids.end());
+    for (TagObservation& obs : keyframe.views) {
+      if (obs.id != tag.id) continue;
+      obs.outlier = std::find(fitted.begin(), fitted.end(), keyframe.frame) == fitted.end();
+      if (obs.outlier) {
+        outliers.push_back(keyframe.frame);
+      } else {
+        AddObservation(&keyframe, obs, tag);
+      }
     }
   }
+  return outliers;
 }
 
 void SlidingWindowBundleAdjuster::RemoveOldest() {
-  FrameState* oldest = window_.front();
-  window_.pop_front();
-  if (fixed_frame_ == oldest) fixed_frame_ = nullptr;
+  Keyframe& oldest = window_.front();
   // Removing the pose block removes the frame's residuals with it.
-  problem_->RemoveParameterBlock(oldest->cam_from_world.data);
-  for (TagId id : tags_per_frame_[oldest]) {
+  problem_->RemoveParameterBlock(oldest.cam_from_world.data);
+  for (TagId id : oldest.in_problem) {
     if (--residuals_per_tag_[id] > 0) continue;
     residuals_per_tag_.erase(id);
-    auto it = tags_in_problem_.find(id);
-    if (it != tags_in_problem_.end()) {
-      problem_->RemoveParameterBlock(it->second->world_from_tag.data);
-      tags_in_problem_.erase(it);
+    auto it = learned_tags_.find(id);
+    if (it != learned_tags_.end()) {
+      problem_->RemoveParameterBlock(it->second.world_from_tag.data);
+      learned_tags_.erase(it);
     }
   }
-  tags_per_frame_.erase(oldest);
+  window_.pop_front();
 }
 
 void SlidingWindowBundleAdjuster::HoldOldestFixed() {
   // The oldest keyframe stands in for everything that left the window: held
   // fixed, it keeps the window from drifting (and fixes the gauge).
-  if (window_.empty() || fixed_frame_ == window_.front()) return;
-  fixed_frame_ = window_.front();
-  problem_->SetParameterBlockConstant(window_.front()->cam_from_world.data);
+  if (!window_.empty()) problem_->SetParameterBlockConstant(window_.front().cam_from_world.data);
 }
 
-bool SlidingWindowBundleAdjuster::Solve() {
+WindowSolution SlidingWindowBundleAdjuster::Solve() {
+  WindowSolution solution;
   bool any_free = false;
-  for (const auto& [id, tag] : tags_in_problem_) any_free = any_free || !tag->anchor;
-  if (!any_free || window_.size() < 2) return false;
+  for (const auto& [id, tag] : learned_tags_) any_free = any_free || !tag.anchor;
+  if (!any_free || window_.size() < 2) return solution;
   ceres::Solver::Options options;
   options.linear_solver_type = ceres::DENSE_SCHUR;
   options.max_num_iterations = options_.window_iterations;
@@ -199,18 +217,25 @@ bool SlidingWindowBundleAdjuster::Solve() {
   // Ceres writes into the blocks as it goes: a solve that fails must not
   // leave the window's poses and tags where it gave up.
   std::vector<PoseParams> poses;
-  for (const FrameState* frame : window_) poses.push_back(frame->cam_from_world);
+  for (const Keyframe& keyframe : window_) poses.push_back(keyframe.cam_from_world);
   std::map<TagId, PoseParams> tags;
-  for (const auto& [id, tag] : tags_in_problem_) tags[id] = tag->world_from_tag;
+  for (const auto& [id, tag] : learned_tags_) tags[id] = tag.world_from_tag;
   ceres::Solver::Summary summary;
   ceres::Solve(options, problem_.get(), &summary);
   bool usable = summary.IsSolutionUsable();
-  for (const FrameState* frame : window_) usable = usable && frame->cam_from_world.ToRigid().translation.allFinite();
-  if (usable) return true;
-  for (size_t i = 0; i < window_.size(); ++i) window_[i]->cam_from_world = poses[i];
-  for (const auto& [id, tag] : tags_in_problem_) tag->world_from_tag = tags[id];
-  ++failed_solves_;
-  return false;
+  for (const Keyframe& keyframe : window_) usable = usable && keyframe.cam_from_world.ToRigid().translation.allFinite();
+  if (!usable) {
+    for (size_t i = 0; i < window_.size(); ++i) window_[i].cam_from_world = poses[i];
+    for (auto& [id, tag] : learned_tags_) tag.world_from_tag = tags[id];
+    ++failed_solves_;
+    return solution;
+  }
+  solution.solved = true;
+  for (const Keyframe& keyframe : window_) solution.cam_from_world.emplace_back(keyframe.frame, keyframe.cam_from_world);
+  for (const auto& [id, tag] : learned_tags_) {
+    if (!tag.anchor) solution.world_from_tag.emplace_back(id, tag.world_from_tag);
+  }
+  return solution;
 }
 
 namespace {
@@ -438,7 +463,7 @@ int AddTargetResiduals(ceres::Problem* problem, const std::vector<FrameState*>& 
         free_parameters += 6;
       }
       if (!intrinsics) {
-        residuals += AddTagResiduals(problem, frame, obs, &tag, fx, fy, huber_px);
+        residuals += AddTagResiduals(problem, &frame->cam_from_world, obs, tag, &tag.world_from_tag, fx, fy, huber_px);
         continue;
       }
       if (tag.known) {

@@ -172,12 +172,12 @@ bool Reconstructor::TryBootstrap(FrameState& frame) {
       state->cam_from_world.Set(pose);
       state->keyframe = true;
       CountMethod(*state);
-      window_->AddKeyframe(state, &tags_);
+      window_->AddKeyframe(*state, tags_);
       keyframes_.push_back(state);
     }
     last_registered_ = &frame;
     started_ = true;
-    window_->Solve();
+    SolveWindow();
     for (FrameState* state : {earlier, &frame}) {
       for (const auto& obs : state->tags) {
         if (!tags_.count(obs.id)) pending_[obs.id].push_back(state);
@@ -235,7 +235,7 @@ void Reconstructor::StartMapFromOneView(FrameState& frame) {
   frame.cam_from_world.Set(candidates.front());
   frame.keyframe = true;
   CountMethod(frame);
-  window_->AddKeyframe(&frame, &tags_);
+  window_->AddKeyframe(frame, tags_);
   keyframes_.push_back(&frame);
   last_registered_ = &frame;
   for (const auto& obs : frame.tags) {
@@ -295,7 +295,7 @@ Reconstructor::FrameCorrespondences Reconstructor::MappedCorners(FrameState& fra
       mapped.Add(tags_.at(id).CornersInWorld(), obs);
       ++report->tags_used;
     }
-    for (TagId id : forced) window_->AddTag(&tags_.at(id));
+    for (TagId id : forced) window_->AddTag(tags_.at(id));
   }
   return mapped;
 }
@@ -348,13 +348,29 @@ void Reconstructor::Register(FrameState& frame, bool adjust, FrameReport* report
   report->remapped_tags = RemapDisagreeingTags(frame);
   std::vector<TagId> added;
   report->tags_added = MapPendingTags(frame, &added);
-  if (IsKeyframe(frame, !added.empty())) {
-    frame.keyframe = true;
-    for (TagId id : added) window_->AddTag(&tags_.at(id));
-    window_->AddKeyframe(&frame, &tags_);
-    keyframes_.push_back(&frame);
-    window_->Solve();
+  if (IsKeyframe(frame, !added.empty())) AddKeyframe(frame, added);
+}
+
+void Reconstructor::AddKeyframe(FrameState& frame, const std::vector<TagId>& added) {
+  frame.keyframe = true;
+  for (TagId id : added) window_->AddTag(tags_.at(id));
+  window_->AddKeyframe(frame, tags_);
+  keyframes_.push_back(&frame);
+  SolveWindow();
+}
+
+void Reconstructor::SolveWindow() {
+  const WindowSolution solution = window_->Solve();
+  for (const auto& [id, pose] : solution.cam_from_world) {
+    if (FrameState* keyframe = FindKeyframe(id)) keyframe->cam_from_world = pose;
   }
+  for (const auto& [id, pose] : solution.world_from_tag) tags_.at(id).world_from_tag = pose;
+}
+
+FrameState* Reconstructor::FindKeyframe(FrameId id) {
+  // The window holds the latest keyframes: each is a few steps from the end.
+  auto keyframe = std::find_if(keyframes_.rbegin(), keyframes_.rend(), [id](const FrameState* k) { return k->frame == id; });
+  return keyframe == keyframes_.rend() ? nullptr : *keyframe;
 }
 
 double Reconstructor::TagInitLimitPx() const {
@@ -470,7 +486,13 @@ std::vector<TagId> Reconstructor::RemapDisagreeingTags(FrameState& frame) {
       for (FrameState* f : run) {
         for (TagObservation& o : f->tags) o.outlier = o.outlier && o.id != obs.id;
       }
-      window_->ReplaceTag(&tag->second, run);
+      std::vector<FrameId> fitted;
+      for (const FrameState* f : run) fitted.push_back(f->frame);
+      for (FrameId outlier : window_->ReplaceTag(tag->second, fitted)) {
+        if (FrameState* keyframe = FindKeyframe(outlier)) {
+          for (TagObservation& o : keyframe->tags) o.outlier = o.outlier || o.id == obs.id;
+        }
+      }
       moved.push_back(obs.id);
       run.clear();
     } else if (static_cast<int>(run.size()) > 4 * options_.remap_after_outlier_frames) {

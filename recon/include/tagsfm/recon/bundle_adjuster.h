@@ -46,6 +46,16 @@ struct BundleAdjusterOptions {
   Status Check() const;
 };
 
+// The window keeps its own copies of its keyframes' poses, their tag views
+// and the learned tags it adjusts, keyed by frame and tag id: the caller's
+// containers may move, and nothing changes in them behind its back. Solve
+// hands the adjusted values back (WindowSolution) for the caller to apply.
+struct WindowSolution {
+  bool solved = false;  // false: skipped, or failed (nothing to apply)
+  std::vector<std::pair<FrameId, PoseParams>> cam_from_world;
+  std::vector<std::pair<TagId, PoseParams>> world_from_tag;  // the learned tags in the window
+};
+
 class SlidingWindowBundleAdjuster {
  public:
   SlidingWindowBundleAdjuster(const BundleAdjusterOptions& options, double fx, double fy);
@@ -53,40 +63,43 @@ class SlidingWindowBundleAdjuster {
   SlidingWindowBundleAdjuster(const SlidingWindowBundleAdjuster&) = delete;
   SlidingWindowBundleAdjuster& operator=(const SlidingWindowBundleAdjuster&) = delete;
 
-  // Adds a registered keyframe with a residual for each corner of each mapped
-  // tag it sees; the oldest keyframe leaves when the window is full. `frame`
-  // and `tags` must outlive the adjuster (their parameters are optimised in place).
-  void AddKeyframe(FrameState* frame, std::map<TagId, MapTag>* tags);
-  // A tag just put into the map: adds the window keyframes' observations of it.
-  void AddTag(MapTag* tag);
-  // A tag mapped again from `fitted` views (Reconstructor's remapping): its
-  // residuals leave the window; the window keyframes among `fitted` add
-  // theirs back, the others' views of it become outliers (they saw it where
-  // it no longer is, or they would pull it back to where it was mapped wrong).
-  void ReplaceTag(MapTag* tag, const std::vector<FrameState*>& fitted);
-  // Solves the window (a few LM iterations); true when it ran and its
-  // solution is usable. Skipped when no tag in the window is free (poses
-  // alone are what PnP already refined). A failed solve leaves the window's
-  // poses and tags as they were, and is counted.
-  bool Solve();
+  // Adds a registered keyframe with a residual for each corner of each tag
+  // of `tags` it sees (its outlier views left out); the oldest keyframe
+  // leaves when the window is full.
+  void AddKeyframe(const FrameState& frame, const std::map<TagId, MapTag>& tags);
+  // A tag just put into the map: adds the window keyframes' views of it.
+  void AddTag(const MapTag& tag);
+  // A tag mapped again (Reconstructor's remapping) from the views of the
+  // frames `fitted`: its residuals leave the window; the window keyframes
+  // among `fitted` add theirs back, the others' views of it become outliers
+  // (they saw it where it no longer is, or would pull it back to where it
+  // was mapped wrong). Returns those keyframes, for the caller to mark.
+  std::vector<FrameId> ReplaceTag(const MapTag& tag, const std::vector<FrameId>& fitted);
+  // Solves the window (a few LM iterations). Skipped when no tag in the
+  // window is free (poses alone are what PnP already refined). A failed
+  // solve leaves the window as it was, and is counted.
+  WindowSolution Solve();
   int failed_solves() const { return failed_solves_; }
   size_t keyframes() const { return window_.size(); }
   size_t residual_blocks() const;
 
  private:
-  void AddObservation(FrameState* frame, const TagObservation& obs, MapTag* tag);
+  struct Keyframe {
+    FrameId frame = 0;
+    PoseParams cam_from_world;          // a parameter block of the problem
+    std::vector<TagObservation> views;  // all its tag views, as added
+    std::vector<TagId> in_problem;      // the tags whose residuals it holds
+  };
+  void AddObservation(Keyframe* keyframe, const TagObservation& obs, const MapTag& tag);
   void RemoveOldest();
   void HoldOldestFixed();
 
   BundleAdjusterOptions options_;
   double fx_, fy_;
   std::unique_ptr<ceres::Problem> problem_;
-  std::deque<FrameState*> window_;
-  std::map<TagId, MapTag*> tags_in_problem_;
+  std::deque<Keyframe> window_;                 // oldest first; stable addresses (the problem points into them)
+  std::map<TagId, MapTag> learned_tags_;        // copies of the learned tags with residuals in the window
   std::map<TagId, int> residuals_per_tag_;
-  std::map<const FrameState*, std::vector<TagId>> tags_per_frame_;
-  std::map<TagId, MapTag>* map_ = nullptr;
-  const FrameState* fixed_frame_ = nullptr;
   int failed_solves_ = 0;
 };
 

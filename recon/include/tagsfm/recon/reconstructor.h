@@ -155,6 +155,11 @@ class Reconstructor {
   // found to be outliers; returns those that moved.
   std::vector<TagId> RemapDisagreeingTags(FrameState& frame);
   bool IsKeyframe(const FrameState& frame, bool added_tags) const;
+  // Makes `frame` a keyframe: into the window (with the tags it just
+  // mapped, `added`), then the window solved and its solution applied.
+  void AddKeyframe(FrameState& frame, const std::vector<TagId>& added);
+  void SolveWindow();
+  FrameState* FindKeyframe(FrameId id);
   std::optional<Rigid3d> PreviousPose(const FrameState& frame) const;
   void CountMethod(const FrameState& frame);
   // The frame's corner noise from its tags' shapes (MeasureCornerNoisePx).
@@ -185,7 +190,7 @@ class Reconstructor {
   bool started_ = false;                          // the map exists (known, or bootstrapped)
   std::optional<TagId> anchor_;
   const FrameState* last_registered_ = nullptr;
-  std::vector<const FrameState*> keyframes_;   // in the order chosen
+  std::vector<FrameState*> keyframes_;   // in the order chosen
   std::unique_ptr<SlidingWindowBundleAdjuster> window_;
   std::map<std::string, int> method_counts_;
   // Corner noise per axis measured on frames whose pose failed the fixed
