@@ -54,6 +54,21 @@ inline SampleWithSlope SampleAndSlope(const cv::Mat& image, double x, double y) 
   return {in_y(mid, 1), 0.5 * (in_y(right, 1) - in_y(left, 1)), 0.5 * (in_y(mid, 2) - in_y(mid, 0))};
 }
 
+struct PatchBuffers {
+  std::vector<Eigen::Vector2d> offsets;
+  std::vector<double> templ, warped;
+  Eigen::Matrix<double, Eigen::Dynamic, 8> jacobian;
+  Eigen::VectorXd residual;
+
+  void Resize(size_t n) {
+    offsets.resize(n);
+    templ.resize(n);
+    warped.resize(n);
+    jacobian.resize(static_cast<Eigen::Index>(n), 8);
+    residual.resize(static_cast<Eigen::Index>(n));
+  }
+};
+
 inline bool Inside(const cv::Mat& image, double x, double y, double margin) {
   return x >= margin && y >= margin && x <= image.cols - 1 - margin && y <= image.rows - 1 - margin;
 }
@@ -82,15 +97,19 @@ std::optional<PatchFit> RefinePatch(const cv::Mat& reference, const Eigen::Vecto
       !Inside(reference, reference_pixel.x() + h, reference_pixel.y() + h, 1)) {
     return std::nullopt;
   }
-  std::vector<Eigen::Vector2d> offsets;
-  std::vector<double> templ;
-  for (int dy = -h; dy <= h; ++dy) {
-    for (int dx = -h; dx <= h; ++dx) {
-      offsets.emplace_back(dx, dy);
-      templ.push_back(Sample(reference, reference_pixel.x() + dx, reference_pixel.y() + dy));
+  // The buffers live as long as the thread: a triangulation refines
+  // hundreds of thousands of patches of the same size.
+  thread_local PatchBuffers buffers;
+  const size_t n = static_cast<size_t>((2 * h + 1) * (2 * h + 1));
+  buffers.Resize(n);
+  std::vector<Eigen::Vector2d>& offsets = buffers.offsets;
+  std::vector<double>& templ = buffers.templ;
+  for (int dy = -h, i = 0; dy <= h; ++dy) {
+    for (int dx = -h; dx <= h; ++dx, ++i) {
+      offsets[static_cast<size_t>(i)] = Eigen::Vector2d(dx, dy);
+      templ[static_cast<size_t>(i)] = Sample(reference, reference_pixel.x() + dx, reference_pixel.y() + dy);
     }
   }
-  const size_t n = offsets.size();
   PatchFit fit;
   fit.warp = start;
   double gain = 1, offset = 0;
@@ -98,10 +117,10 @@ std::optional<PatchFit> RefinePatch(const cv::Mat& reference, const Eigen::Vecto
   using Matrix8d = Eigen::Matrix<double, 8, 8>;
   // One row of the Jacobian per pixel; the normal matrix is then one
   // product (vectorised by Eigen), a third of the time of summing the
-  // pixels' outer products one by one.
-  Eigen::Matrix<double, Eigen::Dynamic, 8> jacobian(static_cast<Eigen::Index>(n), 8);
-  Eigen::VectorXd residual(static_cast<Eigen::Index>(n));
-  std::vector<double> warped(n);
+  // pixels' outer products one by one, and only its lower half.
+  Eigen::Matrix<double, Eigen::Dynamic, 8>& jacobian = buffers.jacobian;
+  Eigen::VectorXd& residual = buffers.residual;
+  std::vector<double>& warped = buffers.warped;
   Matrix8d normal;
   double sum_sq = 0;
   bool converged = false;
@@ -120,7 +139,9 @@ std::optional<PatchFit> RefinePatch(const cv::Mat& reference, const Eigen::Vecto
       residual(row) = templ[i] - (gain * s + offset);
       jacobian.row(row) << gx, gy, gx * x, gx * y, gy * x, gy * y, 1.0, s;
     }
-    normal.noalias() = jacobian.transpose() * jacobian;
+    normal.setZero();
+    normal.selfadjointView<Eigen::Lower>().rankUpdate(jacobian.transpose());
+    normal.triangularView<Eigen::StrictlyUpper>() = normal.transpose();
     const Vector8d rhs = jacobian.transpose() * residual;
     sum_sq = residual.squaredNorm();
     const Eigen::LDLT<Matrix8d> ldlt(normal);
