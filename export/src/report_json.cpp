@@ -157,7 +157,8 @@ void AddAdjustment(const ReconstructionResult& result, nlohmann::json* report) {
   r["covariance_s"] = result.covariance_s;
   r["points_adjusted"] = result.points_adjusted;          // feature points adjusted with the targets
   r["points_adjustment_s"] = result.points_adjustment_s;
-  r["window_solves_failed"] = result.window_solves_failed;  // undone, see SlidingWindowBundleAdjuster::Solve
+  r["window_solves_failed"] = result.window_solves_failed;
+  r["frames_thinned"] = result.frames_thinned;  // tag views given back in a long capture (recon.max_retained_frames)  // undone, see SlidingWindowBundleAdjuster::Solve
   if (result.anchor_tag) r["anchor_tag"] = *result.anchor_tag;
   r["covariance"] = result.covariance ? "targets_cov.csv" : result.covariance_note;
 }

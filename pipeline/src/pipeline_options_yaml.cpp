@@ -73,6 +73,7 @@ void ReadRecon(YamlFields f, ReconstructorOptions* o) {
   f.Read("max_tag_init_rms_px", &o->max_tag_init_rms_px);
   f.Read("remap_after_outlier_frames", &o->remap_after_outlier_frames);
   f.Read("bootstrap_max_frames", &o->bootstrap_max_frames);
+  f.Read("max_retained_frames", &o->max_retained_frames);
   f.Read("bootstrap_min_angle_deg", &o->bootstrap_min_angle_deg);
   f.Read("keyframe_min_translation_ratio", &o->keyframe_min_translation_ratio);
   f.Read("keyframe_min_rotation_deg", &o->keyframe_min_rotation_deg);

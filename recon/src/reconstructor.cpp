@@ -18,6 +18,7 @@ Status ReconstructorOptions::Check() const {
   if (!(max_tag_init_rms_px > 0)) return MakeError("recon.max_tag_init_rms_px must be > 0");
   if (remap_after_outlier_frames < 1) return MakeError("recon.remap_after_outlier_frames must be >= 1");
   if (bootstrap_max_frames < 1) return MakeError("recon.bootstrap_max_frames must be >= 1");
+  if (max_retained_frames < 2) return MakeError("recon.max_retained_frames must be >= 2");
   if (!(bootstrap_min_angle_deg >= 0)) return MakeError("recon.bootstrap_min_angle_deg must be >= 0");
   if (!(keyframe_min_translation_ratio >= 0)) return MakeError("recon.keyframe_min_translation_ratio must be >= 0");
   if (!(keyframe_min_rotation_deg >= 0)) return MakeError("recon.keyframe_min_rotation_deg must be >= 0");
@@ -145,7 +146,52 @@ FrameReport Reconstructor::AddFrame(const DetectionSet& detections) {
   }
   std::sort(report.earlier_keyframes.begin(), report.earlier_keyframes.end(),
             [](const EarlierKeyframe& a, const EarlierKeyframe& b) { return a.frame < b.frame; });
+  RetainOrThin(frames_.size() - 1);
   return report;
+}
+
+void Reconstructor::RetainOrThin(size_t index) {
+  FrameState& frame = frames_[index];
+  if (frame.keyframe || frame.tags.empty()) return;
+  if (index % retain_stride_ != 0 && !IsHeld(frame)) {
+    GiveBackViews(&frame);
+    return;
+  }
+  if (++retained_ <= static_cast<size_t>(options_.max_retained_frames)) return;
+  // Over the budget: keep every second one of those kept, evenly in time,
+  // and from now on every second one of those to come.
+  retain_stride_ *= 2;
+  retained_ = 0;
+  for (size_t i = 0; i < frames_.size(); ++i) {
+    FrameState& f = frames_[i];
+    if (f.keyframe || f.tags.empty()) continue;
+    if (i % retain_stride_ != 0 && !IsHeld(f)) {
+      GiveBackViews(&f);
+    } else {
+      ++retained_;
+    }
+  }
+}
+
+bool Reconstructor::IsHeld(const FrameState& frame) const {
+  auto holds = [&frame](const std::vector<FrameState*>& views) {
+    return std::find(views.begin(), views.end(), &frame) != views.end();
+  };
+  if (holds(bootstrap_buffer_)) return true;
+  for (const auto& [id, views] : pending_) {
+    if (holds(views)) return true;
+  }
+  for (const auto& [id, views] : outlier_runs_) {
+    if (holds(views)) return true;
+  }
+  return false;
+}
+
+void Reconstructor::GiveBackViews(FrameState* frame) {
+  frame->tags.clear();
+  frame->tags.shrink_to_fit();
+  frame->thinned = true;
+  ++frames_thinned_;
 }
 
 bool Reconstructor::TryBootstrap(FrameState& frame) {
@@ -597,6 +643,7 @@ ReconstructionResult Reconstructor::Finish(const PointTriangulation& triangulate
   ReconstructionResult result;
   result.tags_remapped = tags_remapped_;
   result.window_solves_failed = window_->failed_solves();
+  result.frames_thinned = frames_thinned_;
   if (options_.final_adjustment && !registered.empty()) AdjustFinally(registered, &result);
   ApplyScale(&registered, &result);
   if (triangulate && !registered.empty()) {

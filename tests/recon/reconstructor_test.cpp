@@ -281,6 +281,59 @@ TEST(Reconstructor, EveryKeyframeIsReportedOnceAlsoTheViewsTheBootstrapHeldBack)
   EXPECT_EQ(reported, keyframes);
 }
 
+TEST(Reconstructor, ALongCaptureKeepsTheViewsOfAtMostItsBudgetOfFramesBesidesTheKeyframes) {
+  // Video-like: 240 frames 0.25 degrees apart, no map. With a budget of 20
+  // frames besides the keyframes, the others give back their tag views
+  // (memory stays bounded in a capture of hours) and keep their live poses;
+  // the map from keyframes and kept frames agrees with the map from all.
+  synth::SyntheticSceneOptions options;
+  options.frames = 240;
+  options.arc_deg = 60;
+  options.smooth_path = true;
+  options.noise_px = 0.1;
+  const synth::SyntheticScene scene = synth::MakeSyntheticBoxScene(options);
+  auto run = [&](int budget) {
+    ReconstructorOptions recon_options;
+    recon_options.max_retained_frames = budget;
+    auto recon = Reconstructor::Create(scene.camera, BoxTargets(options), std::nullopt, recon_options);
+    EXPECT_TRUE(recon.has_value());
+    for (const auto& detections : scene.detections) (*recon)->AddFrame(detections);
+    return (*recon)->Finish();
+  };
+  const ReconstructionResult all = run(1000);
+  const ReconstructionResult thinned = run(20);
+  EXPECT_EQ(all.frames_thinned, 0);
+  int kept = 0, keyframes = 0;
+  for (const FrameState& f : thinned.frames) {
+    keyframes += f.keyframe;
+    kept += !f.keyframe && !f.tags.empty();
+    EXPECT_EQ(f.thinned, f.tags.empty() && !f.keyframe) << "frame " << f.frame;
+    EXPECT_TRUE(f.registered) << "frame " << f.frame << ": " << f.reason;
+  }
+  EXPECT_GT(keyframes, 5);
+  // The budget, and the few views a tag waiting to be mapped still holds.
+  EXPECT_LE(kept, 20 + 8) << "frames besides the keyframes that kept their views";
+  EXPECT_EQ(thinned.frames_thinned, static_cast<int>(thinned.frames.size()) - keyframes - kept);
+  EXPECT_GT(thinned.frames_thinned, 100);
+  // Every frame keeps a pose (the thinned ones as registered live).
+  ASSERT_EQ(thinned.frames.size(), scene.cam_from_world.size());
+  // The maps, by tag-to-tag distances (free of the gauge): the adjustment
+  // of 110 fewer near-duplicate views moves the worst of 666 pairs by
+  // 0.25 mm; 0.5 mm is twice that.
+  ASSERT_EQ(thinned.tags.size(), all.tags.size());
+  double worst_mm = 0;
+  for (const auto& [a, tag_a] : all.tags) {
+    for (const auto& [b, tag_b] : all.tags) {
+      if (b <= a) continue;
+      const double d_all = (tag_a.CornersInWorld()[0] - tag_b.CornersInWorld()[0]).norm();
+      const double d_thin = (thinned.tags.at(a).CornersInWorld()[0] - thinned.tags.at(b).CornersInWorld()[0]).norm();
+      worst_mm = std::max(worst_mm, 1e3 * std::abs(d_all - d_thin));
+    }
+  }
+  EXPECT_LT(worst_mm, 0.5);
+  EXPECT_GT(worst_mm, 0.0) << "the two adjustments cannot be the same";
+}
+
 TEST(Reconstructor, FrameWithoutTagsIsUnregisteredWithReason) {
   synth::SyntheticSceneOptions options;
   options.frames = 3;

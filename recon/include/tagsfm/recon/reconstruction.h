@@ -41,6 +41,10 @@ struct FrameState {
   std::string reason;          // why unregistered
   double pnp_rms_px = 0;
   PoseParams cam_from_world;   // valid when registered
+  // Its tag views were given back to keep a long capture's memory bounded
+  // (ReconstructorOptions::max_retained_frames): the pose stays as
+  // registered live, and the final adjustment does without it.
+  bool thinned = false;
 
   const TagObservation* Find(TagId id) const {
     for (const auto& t : tags) {
@@ -120,6 +124,7 @@ struct ReconstructionResult {
   MapScale scale;
   bool global_adjustment_converged = false;
   int window_solves_failed = 0;
+  int frames_thinned = 0;  // frames whose tag views were given back (ReconstructorOptions::max_retained_frames)
   int points_adjusted = 0;                   // feature points in the last adjustment with the targets
   double points_adjustment_s = 0;
   bool intrinsics_refined = false;           // `camera` is the adjusted one

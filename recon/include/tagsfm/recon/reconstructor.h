@@ -45,6 +45,13 @@ struct ReconstructorOptions {
   double keyframe_min_translation_ratio = 0.05;
   double keyframe_min_rotation_deg = 5.0;
   bool final_adjustment = true;
+  // The final adjustment takes every keyframe and, of the other frames with
+  // tags, at most this many, spread evenly in time: beyond it every second
+  // one gives back its tag views (its pose stays as registered live), so a
+  // capture of hours holds bounded memory (2-5 kB a frame kept, ~200 bytes
+  // one given back). Consecutive video frames are near-duplicate views; the
+  // keyframes carry the geometry.
+  int max_retained_frames = 5000;
   // Adjust the intrinsics too in the final adjustment (a camera calibrated
   // from the targets: pinhole, k1 k2 only).
   bool refine_intrinsics = false;
@@ -155,6 +162,12 @@ class Reconstructor {
   // found to be outliers; returns those that moved.
   std::vector<TagId> RemapDisagreeingTags(FrameState& frame);
   bool IsKeyframe(const FrameState& frame, bool added_tags) const;
+  // Keeps the newest frame's tag views or gives them back, and halves the
+  // frames kept when they exceed max_retained_frames (ThinFrames).
+  void RetainOrThin(size_t index);
+  // A frame whose views the map still waits on (bootstrap, pending tags, outlier runs).
+  bool IsHeld(const FrameState& frame) const;
+  void GiveBackViews(FrameState* frame);
   // Makes `frame` a keyframe: into the window (with the tags it just
   // mapped, `added`), then the window solved and its solution applied.
   void AddKeyframe(FrameState& frame, const std::vector<TagId>& added);
@@ -185,6 +198,11 @@ class Reconstructor {
   // Learned tags' latest run of registered frames in which they were outliers.
   std::map<TagId, std::vector<FrameState*>> outlier_runs_;
   int tags_remapped_ = 0;
+  // Frames kept in the final adjustment besides the keyframes: every
+  // retain_stride_-th frame, retained_ of them now; frames_thinned_ given back.
+  size_t retain_stride_ = 1;
+  size_t retained_ = 0;
+  int frames_thinned_ = 0;
   std::map<TagId, std::string> unmapped_reasons_;  // why a waiting tag was not mapped at Finish
   std::vector<FrameState*> bootstrap_buffer_;
   bool started_ = false;                          // the map exists (known, or bootstrapped)
