@@ -50,16 +50,15 @@ run env LIBCAMERA_LOG_LEVELS='*:ERROR' "$BUILD/tagsfm" record --source libcamera
   --tag-size 0.05 --frames 5 > "$R/libcamera.out" 2> "$R/libcamera.err"
 echo $? > "$R/libcamera.rc"
 
-# Unplugged mid-capture (vivid's Disconnect control unregisters the device):
-# the recording so far stays, one line says so.
-unplug() {  # vivid's Disconnect control; if frames still come, unbind the driver through sysfs
-  run v4l2-ctl -d /dev/video0 --set-ctrl=disconnect=1 >> "$R/disconnect.txt" 2>&1
-  before=$(ls "$R/$1/frames" | wc -l)
-  sleep 3
-  if [ "$(ls "$R/$1/frames" | wc -l)" -gt $((before + 2)) ]; then
-    echo "disconnect control did not stop the stream: unbinding vivid.0" >> "$R/disconnect.txt"
-    echo vivid.0 > /sys/bus/platform/drivers/vivid/unbind
-  fi
+# Unplugged mid-capture: vivid's platform device unbound through sysfs, as
+# the kernel removes a camera pulled from its USB port (the device node
+# goes, open files get ENODEV). vivid's own Disconnect control was tried
+# first and measured not to stop the stream: in 5 of 5 runs frames kept
+# coming for 3 s after it (docs/capture.md). The recording so far stays,
+# one line says so.
+unplug() {
+  echo "unbinding vivid.0 after $(ls "$R/$1/frames" | wc -l) frames" >> "$R/disconnect.txt"
+  echo vivid.0 > /sys/bus/platform/drivers/vivid/unbind
 }
 
 # Capped at 300 frames so that a driver that never goes away cannot hang the test.
