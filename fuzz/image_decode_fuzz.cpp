@@ -1,15 +1,11 @@
-// A recorded frame's file: LoadImageFrame (decode, truncation check, grey).
-#include <cstdlib>
-
+// A recorded frame's file: LoadImageFrame (header size check, decode,
+// truncation check, grey). OpenCV's own pixel limit (OPENCV_IO_MAX_IMAGE_PIXELS)
+// is read when its library loads, before any fuzzer hook runs: setting it
+// here had no effect, and a 44-byte JPEG claiming 1 Gpx found that
+// (docs/reliability.md, finding 5). LoadImageFrame now reads the size from
+// the header and refuses what no frame can be.
 #include "fuzz_file.h"
 #include "tagsfm/capture/recording.h"
-
-extern "C" int LLVMFuzzerInitialize(int*, char***) {
-  // A header may claim a huge image; OpenCV's decoders allocate what it
-  // claims up to this limit (1 Mpx here, 1 Gpx by default).
-  setenv("OPENCV_IO_MAX_IMAGE_PIXELS", "1048576", 1);
-  return 0;
-}
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   const auto path = tagsfm::fuzz::WriteInput("frame.img", data, size);

@@ -7,6 +7,8 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "tagsfm/capture/image_header.h"
+
 namespace tagsfm {
 namespace {
 
@@ -23,6 +25,13 @@ int BytesPerPixel(std::uint32_t fourcc) {
 
 Result<DecodedPixels> DecodeJpeg(const PixelLayout& layout, const std::uint8_t* data, size_t bytes_used, bool colour) {
   // A header over the driver's buffer: imdecode reads it in place.
+  // A header that claims another size is refused before the decoder
+  // allocates what it claims.
+  const auto claimed = EncodedImageSize(data, bytes_used);
+  if (claimed && (claimed->width != layout.width || claimed->height != layout.height)) {
+    return MakeError("MJPG frame header says " + std::to_string(claimed->width) + "x" + std::to_string(claimed->height) +
+                     ", the negotiated size is " + std::to_string(layout.width) + "x" + std::to_string(layout.height));
+  }
   const cv::Mat encoded(1, static_cast<int>(bytes_used), CV_8UC1, const_cast<std::uint8_t*>(data));
   DecodedPixels out;
   try {

@@ -8,6 +8,8 @@
 #include "tagsfm/capture/recording.h"
 #include "tagsfm/core/file_util.h"
 
+#include "tagsfm/capture/image_header.h"
+
 namespace tagsfm {
 namespace {
 
@@ -121,6 +123,15 @@ Result<Frame> LoadImageFrame(const std::filesystem::path& file, FrameId index, s
   // partial image; reading the bytes and decoding them gives one answer.
   auto bytes = ReadFileToString(file);
   if (!bytes) return MakeError(where + "cannot read");
+  // Frames are PNG (recorded), JPEG (photos) or PGM; their size is read
+  // from the header and checked before the decoder allocates it. Other
+  // formats' headers are not read here, so they are refused.
+  const auto claimed = EncodedImageSize(reinterpret_cast<const std::uint8_t*>(bytes->data()), bytes->size());
+  if (!claimed) return MakeError(where + "not a PNG, JPEG or PGM/PPM file (or its header is cut short)");
+  if (claimed->width * claimed->height > kMaxFramePixels) {
+    return MakeError(where + "its header claims " + std::to_string(claimed->width) + "x" +
+                     std::to_string(claimed->height) + " pixels, more than a frame can have (corrupt?)");
+  }
   const cv::Mat buffer(1, static_cast<int>(bytes->size()), CV_8U, bytes->data());
   try {
     frame.image = cv::imdecode(buffer, cv::IMREAD_UNCHANGED);

@@ -1,11 +1,15 @@
 // Inputs the fuzzers (fuzz/) found to crash the recording's readers, kept
 // as regression tests: each must now be a one-line error naming the file,
 // or read as the contract says.
+#include <cctype>
 #include <fstream>
+
+#include <opencv2/imgcodecs.hpp>
 
 #include <gtest/gtest.h>
 
 #include "tagsfm/capture/capture_settings.h"
+#include "tagsfm/capture/image_header.h"
 #include "tagsfm/capture/recording.h"
 #include "test_paths.h"
 
@@ -57,6 +61,53 @@ TEST(FuzzFindings, FramesCsvWithABlankFirstLineReadsTheHeaderAfterIt) {
   ASSERT_FALSE(bad.has_value());
   EXPECT_NE(bad.error().message.find("frames.csv:2: header must have the columns"), std::string::npos)
       << bad.error().message;
+}
+
+TEST(FuzzFindings, AnImageWhoseHeaderClaimsAGigapixelIsRefusedBeforeDecoding) {
+  // image_decode_fuzz: a 44-byte JPEG whose frame header claims 65361 x
+  // 16207 pixels made OpenCV allocate 3.2 GB for it (its own limit is
+  // 1 Gpx); on a rig that is the out-of-memory killer. The size is now read
+  // from the header first.
+  const unsigned char jpeg[] = {0xff, 0xd8, 0xff, 0xe0, 0x00, 0x01, 0x20, 0x28, 0xff, 0xc0, 0x00, 0x11, 0x08, 0x3f, 0x4f,
+                                0xff, 0x51, 0x03, 0x01, 0x22, 0x20, 0x02, 0x11, 0x01, 0x03, 0x11, 0xf5, 0xf6, 0xff, 0xda,
+                                0x00, 0x0c, 0x03, 0x01, 0x00, 0x02, 0x11, 0x03, 0x11, 0x00, 0xff, 0x00, 0x34, 0x01};
+  TempDir tmp;
+  WriteFile(tmp.path() / "huge.jpg", std::string(reinterpret_cast<const char*>(jpeg), sizeof jpeg));
+  auto frame = LoadImageFrame(tmp.path() / "huge.jpg", 7, 0);
+  ASSERT_FALSE(frame.has_value());
+  EXPECT_EQ(frame.error().message, (tmp.path() / "huge.jpg").string() +
+                                       " (frame 7): its header claims 65361x16207 pixels, more than a frame can have "
+                                       "(corrupt?)");
+  // The same for a PNG whose IHDR claims 100000 x 100000.
+  std::string png("\x89PNG\r\n\x1a\n\0\0\0\x0dIHDR\0\x01\x86\xa0\0\x01\x86\xa0\x08\0\0\0\0", 33);
+  WriteFile(tmp.path() / "huge.png", png);
+  auto png_frame = LoadImageFrame(tmp.path() / "huge.png", 0, 0);
+  ASSERT_FALSE(png_frame.has_value());
+  EXPECT_NE(png_frame.error().message.find("claims 100000x100000 pixels"), std::string::npos) << png_frame.error().message;
+}
+
+TEST(ImageHeader, TheSizeReadFromTheHeaderIsTheDecodedSizeOnEveryRealPhoto) {
+  // The header walk must never refuse a real file: every PNG and JPEG of
+  // ../shared/data (phone photos with EXIF, Middlebury, AprilTag test sets,
+  // video frames) claims in its header the size it decodes to.
+  const std::filesystem::path data = testing::SharedDataDir();
+  if (!std::filesystem::exists(data)) GTEST_SKIP() << data << " is absent";
+  int checked = 0;
+  for (const auto& entry : std::filesystem::recursive_directory_iterator(data)) {
+    std::string ext = entry.path().extension().string();
+    for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+    if (ext != ".png" && ext != ".jpg" && ext != ".jpeg") continue;
+    std::ifstream in(entry.path(), std::ios::binary);
+    const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    const auto claimed = EncodedImageSize(reinterpret_cast<const std::uint8_t*>(bytes.data()), bytes.size());
+    const cv::Mat decoded = cv::imread(entry.path().string(), cv::IMREAD_UNCHANGED);
+    if (decoded.empty()) continue;
+    ASSERT_TRUE(claimed.has_value()) << entry.path();
+    EXPECT_EQ(claimed->width, decoded.cols) << entry.path();
+    EXPECT_EQ(claimed->height, decoded.rows) << entry.path();
+    ++checked;
+  }
+  EXPECT_GT(checked, 100) << "images checked";
 }
 
 }  // namespace
