@@ -79,4 +79,30 @@ unplug replug
 rmmod vivid
 insmod /modules/*-vivid.ko
 wait $pid
+# Rendered frames with targets through the driver: vivid's HDMI output
+# looped back into its HDMI input (loop_video; both at vivid's default
+# 1280x720 timings, GREY on both sides, no text drawn over the picture),
+# fed from loop_frames.raw (raw GREY frames the host test wrote) by
+# v4l2-ctl, recorded by tagsfm from the capture node.
+if [ -f "$R/loop_frames.raw" ]; then
+  rmmod vivid && insmod /modules/*-vivid.ko
+  for i in 1 2 3 4 5 6 7 8 9 10; do [ -e /dev/video1 ] && break; sleep 0.2; done
+  {
+    run v4l2-ctl -d /dev/video0 --set-input=3
+    run v4l2-ctl -d /dev/video1 --set-output=1
+    run v4l2-ctl -d /dev/video0 -c loop_video=1 -c osd_text_mode=2
+    run v4l2-ctl -d /dev/video1 --set-fmt-video-out=width=1280,height=720,pixelformat=GREY
+    run v4l2-ctl -d /dev/video0 --get-input --get-fmt-video -C loop_video
+    run v4l2-ctl -d /dev/video1 --get-output --get-fmt-video-out
+  } > "$R/loop_setup.txt" 2>&1
+  run v4l2-ctl -d /dev/video1 --stream-out-mmap --stream-from="$RESULTS/loop_frames.raw" --stream-loop \
+    > "$R/loop_feed.txt" 2>&1 &
+  feeder=$!
+  sleep 1
+  printf 'capture:\n  source: v4l2:/dev/video0\n  width: 1280\n  height: 720\n  pixel_format: GREY\n' > "$R/loop.yaml"
+  run "$BUILD/tagsfm" record --config "$RESULTS/loop.yaml" --out "$RESULTS/loop" --tag-size 0.06 --frames 20 \
+    > "$R/loop.out" 2> "$R/loop.err"
+  echo $? > "$R/loop.rc"
+  kill $feeder
+fi
 exit 0
