@@ -9,6 +9,12 @@
 #include <set>
 #include <thread>
 
+#include <sys/resource.h>
+#include <sys/syscall.h>
+#include <unistd.h>
+
+#include <opencv2/core/utility.hpp>
+
 namespace tagsfm {
 namespace {
 
@@ -54,6 +60,7 @@ struct FeatureStage::State {
   std::vector<double> keyframe_ms;
   LiveCloud cloud;
   std::thread worker;
+  int opencv_threads = 0;  // OpenCV's threads before the worker started
 
   void Work();
   // `threads` match the keyframe with its neighbours: one on the live
@@ -122,6 +129,12 @@ void FeatureStage::State::UpdateCloud() {
 }
 
 void FeatureStage::State::Work() {
+  // Live, the features are best effort (a keyframe dropped here is done
+  // again at Finish) and the frames' tags are not: this thread runs at a
+  // lower priority (nice +10, Linux's per-thread nice), and OpenCV runs its
+  // parallel loops in the calling thread while the worker lives, so SIFT
+  // does not take the detector's core either (StopWorker restores it).
+  setpriority(PRIO_PROCESS, static_cast<id_t>(syscall(SYS_gettid)), 10);
   while (true) {
     Job job;
     {
@@ -143,6 +156,7 @@ void FeatureStage::State::StopWorker() {
   }
   ready.notify_one();
   worker.join();
+  cv::setNumThreads(opencv_threads);
 }
 
 Result<std::unique_ptr<FeatureStage>> FeatureStage::Create(const CameraModel& camera, const FeatureStageOptions& options,
@@ -160,7 +174,11 @@ Result<std::unique_ptr<FeatureStage>> FeatureStage::Create(const CameraModel& ca
   }
   state->live_cloud = live_cloud;
   state->map = std::make_unique<FeatureMap>(std::move(*map));
-  if (options.background) state->worker = std::thread([s = state.get()] { s->Work(); });
+  if (options.background) {
+    state->opencv_threads = cv::getNumThreads();
+    cv::setNumThreads(1);
+    state->worker = std::thread([s = state.get()] { s->Work(); });
+  }
   return std::unique_ptr<FeatureStage>(new FeatureStage(std::move(state)));
 }
 
