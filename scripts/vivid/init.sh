@@ -17,7 +17,15 @@ read -r BUILD RESULTS SCRIPTS < /results/guest_args
 mount --bind /dev /host/dev
 mount -t proc proc /host/proc
 mount -t sysfs sys /host/sys
+# The scratch /tmp hides the host's: a build, scripts or results folder
+# under the host's /tmp (a clone there) is bound back to its own path.
+mkdir -p /hosttmp
+mount --bind /host/tmp /hosttmp
 mount -t tmpfs tmp /host/tmp
+for dir in "$BUILD" "$SCRIPTS"; do
+  case "$dir" in /tmp/*) mkdir -p "/host$dir" && mount --bind "/hosttmp/${dir#/tmp/}" "/host$dir" ;; esac
+done
+[ -d "/host$RESULTS" ] || mkdir -p "/host$RESULTS"
 mount --bind /results "/host$RESULTS"
 for i in 1 2 3 4 5 6 7 8 9 10; do [ -e /dev/video0 ] && break; sleep 0.2; done
 sh "/host$SCRIPTS/guest.sh" "$BUILD" "$RESULTS" > /results/guest.log 2>&1
