@@ -128,7 +128,7 @@ Result<Frame> LoadImageFrame(const std::filesystem::path& file, FrameId index, s
   // formats' headers are not read here, so they are refused.
   const auto claimed = EncodedImageSize(reinterpret_cast<const std::uint8_t*>(bytes->data()), bytes->size());
   if (!claimed) return MakeError(where + "not a PNG, JPEG or PGM/PPM file (or its header is cut short)");
-  if (claimed->width * claimed->height > kMaxFramePixels) {
+  if (ClaimsTooManyPixels(*claimed)) {
     return MakeError(where + "its header claims " + std::to_string(claimed->width) + "x" +
                      std::to_string(claimed->height) + " pixels, more than a frame can have (corrupt?)");
   }

@@ -84,6 +84,14 @@ TEST(FuzzFindings, AnImageWhoseHeaderClaimsAGigapixelIsRefusedBeforeDecoding) {
   auto png_frame = LoadImageFrame(tmp.path() / "huge.png", 0, 0);
   ASSERT_FALSE(png_frame.has_value());
   EXPECT_NE(png_frame.error().message.find("claims 100000x100000 pixels"), std::string::npos) << png_frame.error().message;
+  // The fuzzer's second input: a PNG whose IHDR claims 4283432959 x
+  // 4294967295, whose product overflowed the 64-bit pixel count (UBSan).
+  std::string sides("\x89PNG\r\n\x1a\n\0\0\0\x0dIHDR\xff\x4f\xff\xff\xff\xff\xff\xff\x08\0\0\0\0", 33);
+  WriteFile(tmp.path() / "sides.png", sides);
+  auto sides_frame = LoadImageFrame(tmp.path() / "sides.png", 0, 0);
+  ASSERT_FALSE(sides_frame.has_value());
+  EXPECT_NE(sides_frame.error().message.find("claims 4283432959x4294967295 pixels"), std::string::npos)
+      << sides_frame.error().message;
 }
 
 TEST(ImageHeader, TheSizeReadFromTheHeaderIsTheDecodedSizeOnEveryRealPhoto) {

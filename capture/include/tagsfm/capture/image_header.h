@@ -20,4 +20,10 @@ std::optional<EncodedSize> EncodedImageSize(const std::uint8_t* data, size_t siz
 // 12; the largest machine-vision sensors ~150 are not rig cameras).
 constexpr long long kMaxFramePixels = 64LL << 20;
 
+// More than kMaxFramePixels (each side checked first: a PNG's 32-bit sides
+// multiplied overflow a 64-bit count).
+inline bool ClaimsTooManyPixels(const EncodedSize& size) {
+  return size.width > kMaxFramePixels || size.height > kMaxFramePixels || size.width * size.height > kMaxFramePixels;
+}
+
 }  // namespace tagsfm
