@@ -61,6 +61,18 @@ unplug() {
   echo vivid.0 > /sys/bus/platform/drivers/vivid/unbind
 }
 
+# Unloads vivid as soon as nothing holds it open (at most 30 s), loads it again.
+reload_vivid() {
+  i=0
+  until rmmod vivid 2>/dev/null; do
+    i=$((i + 1))
+    [ $i -ge 150 ] && { echo "vivid still in use after 30 s" >> "$R/disconnect.txt"; break; }
+    sleep 0.2
+  done
+  echo "vivid unloaded after $i tries" >> "$R/disconnect.txt"
+  insmod /modules/*-vivid.ko
+}
+
 # Capped at 300 frames so that a driver that never goes away cannot hang the test.
 record unplug GREY 128 0 --frames 300 &
 pid=$!
@@ -70,14 +82,17 @@ wait $pid
 
 # Unplugged and plugged back (the driver reloaded) with capture.reconnect_wait_s:
 # the recording goes on after the gap.
-rmmod vivid && insmod /modules/*-vivid.ko
+reload_vivid
 for i in 1 2 3 4 5 6 7 8 9 10; do [ -e /dev/video0 ] && break; sleep 0.2; done
 record replug GREY 128 60 --frames 40 &
 pid=$!
 wait_for_frames replug 10
 unplug replug
-rmmod vivid
-insmod /modules/*-vivid.ko
+# vivid unloads only once the recorder has closed the lost device (it
+# notices within its frame timeout; under load that was seen to take
+# longer than an immediate rmmod allowed, which left vivid loaded, unbound,
+# and the camera never back).
+reload_vivid
 wait $pid
 # Rendered frames with targets through the driver: vivid's HDMI output
 # looped back into its HDMI input (loop_video; both at vivid's default
@@ -85,7 +100,7 @@ wait $pid
 # fed from loop_frames.raw (raw GREY frames the host test wrote) by
 # v4l2-ctl, recorded by tagsfm from the capture node.
 if [ -f "$R/loop_frames.raw" ]; then
-  rmmod vivid && insmod /modules/*-vivid.ko
+  reload_vivid
   for i in 1 2 3 4 5 6 7 8 9 10; do [ -e /dev/video1 ] && break; sleep 0.2; done
   {
     run v4l2-ctl -d /dev/video0 --set-input=3
