@@ -79,15 +79,15 @@ TEST(FuzzFindings, AnImageWhoseHeaderClaimsAGigapixelIsRefusedBeforeDecoding) {
                                        " (frame 7): its header claims 65361x16207 pixels, more than a frame can have "
                                        "(corrupt?)");
   // The same for a PNG whose IHDR claims 100000 x 100000.
-  std::string png("\x89PNG\r\n\x1a\n\0\0\0\x0dIHDR\0\x01\x86\xa0\0\x01\x86\xa0\x08\0\0\0\0", 33);
-  WriteFile(tmp.path() / "huge.png", png);
+  const char png[] = "\x89PNG\r\n\x1a\n\0\0\0\x0dIHDR\0\x01\x86\xa0\0\x01\x86\xa0\x08\0\0\0\0";
+  WriteFile(tmp.path() / "huge.png", std::string(png, sizeof png - 1));
   auto png_frame = LoadImageFrame(tmp.path() / "huge.png", 0, 0);
   ASSERT_FALSE(png_frame.has_value());
   EXPECT_NE(png_frame.error().message.find("claims 100000x100000 pixels"), std::string::npos) << png_frame.error().message;
   // The fuzzer's second input: a PNG whose IHDR claims 4283432959 x
   // 4294967295, whose product overflowed the 64-bit pixel count (UBSan).
-  std::string sides("\x89PNG\r\n\x1a\n\0\0\0\x0dIHDR\xff\x4f\xff\xff\xff\xff\xff\xff\x08\0\0\0\0", 33);
-  WriteFile(tmp.path() / "sides.png", sides);
+  const char sides[] = "\x89PNG\r\n\x1a\n\0\0\0\x0dIHDR\xff\x4f\xff\xff\xff\xff\xff\xff\x08\0\0\0\0";
+  WriteFile(tmp.path() / "sides.png", std::string(sides, sizeof sides - 1));
   auto sides_frame = LoadImageFrame(tmp.path() / "sides.png", 0, 0);
   ASSERT_FALSE(sides_frame.has_value());
   EXPECT_NE(sides_frame.error().message.find("claims 4283432959x4294967295 pixels"), std::string::npos)
