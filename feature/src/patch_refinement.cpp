@@ -54,21 +54,6 @@ inline SampleWithSlope SampleAndSlope(const cv::Mat& image, double x, double y) 
   return {in_y(mid, 1), 0.5 * (in_y(right, 1) - in_y(left, 1)), 0.5 * (in_y(mid, 2) - in_y(mid, 0))};
 }
 
-struct PatchBuffers {
-  std::vector<Eigen::Vector2d> offsets;
-  std::vector<double> templ, warped;
-  Eigen::Matrix<double, Eigen::Dynamic, 8> jacobian;
-  Eigen::VectorXd residual;
-
-  void Resize(size_t n) {
-    offsets.resize(n);
-    templ.resize(n);
-    warped.resize(n);
-    jacobian.resize(static_cast<Eigen::Index>(n), 8);
-    residual.resize(static_cast<Eigen::Index>(n));
-  }
-};
-
 inline bool Inside(const cv::Mat& image, double x, double y, double margin) {
   return x >= margin && y >= margin && x <= image.cols - 1 - margin && y <= image.rows - 1 - margin;
 }
@@ -87,6 +72,85 @@ double Correlation(const std::vector<double>& a, const std::vector<double>& b) {
   return va > 0 && vb > 0 ? (sab - sa * sb / n) / std::sqrt(va * vb) : 0.0;
 }
 
+using Vector8d = Eigen::Matrix<double, 8, 1>;
+using Matrix8d = Eigen::Matrix<double, 8, 8>;
+
+// The fit's per-patch arrays, kept for the thread's life: a triangulation
+// refines hundreds of thousands of patches of the same size.
+struct PatchBuffers {
+  std::vector<Eigen::Vector2d> offsets;  // each patch pixel from the centre
+  std::vector<double> templ, warped;     // the reference's grey values; the target's under the warp
+  // One row of the Jacobian per pixel: the normal matrix is then one
+  // product (vectorised by Eigen), a third of the time of summing the
+  // pixels' outer products one by one.
+  Eigen::Matrix<double, Eigen::Dynamic, 8> jacobian;
+  Eigen::VectorXd residual;
+
+  // The reference patch, (2 h + 1)^2 pixels round `centre`.
+  void SampleTemplate(const cv::Mat& reference, const Eigen::Vector2d& centre, int h) {
+    const size_t n = static_cast<size_t>((2 * h + 1) * (2 * h + 1));
+    offsets.resize(n);
+    templ.resize(n);
+    warped.resize(n);
+    jacobian.resize(static_cast<Eigen::Index>(n), 8);
+    residual.resize(static_cast<Eigen::Index>(n));
+    for (int dy = -h, i = 0; dy <= h; ++dy) {
+      for (int dx = -h; dx <= h; ++dx, ++i) {
+        offsets[static_cast<size_t>(i)] = Eigen::Vector2d(dx, dy);
+        templ[static_cast<size_t>(i)] = Sample(reference, centre.x() + dx, centre.y() + dy);
+      }
+    }
+  }
+
+  // Residuals and Jacobian of the target under `warp`, gain and offset
+  // (parameters: centre 2, affine 4, offset, gain); false when the warped
+  // patch leaves the image.
+  bool Linearise(const cv::Mat& target, const PatchWarp& warp, double gain, double offset) {
+    for (size_t i = 0; i < offsets.size(); ++i) {
+      const Eigen::Vector2d w = warp.centre + warp.affine * offsets[i];
+      // Central differences over two pixels (half the noise of the
+      // bilinear patch's own slope, measured in the tests) need a pixel on
+      // each side, bilinear one more.
+      if (!Inside(target, w.x(), w.y(), 2)) return false;
+      const SampleWithSlope at = SampleAndSlope(target, w.x(), w.y());
+      const double s = at.value, gx = gain * at.gx, gy = gain * at.gy;
+      warped[i] = s;
+      const double x = offsets[i].x(), y = offsets[i].y();
+      const Eigen::Index row = static_cast<Eigen::Index>(i);
+      residual(row) = templ[i] - (gain * s + offset);
+      jacobian.row(row) << gx, gy, gx * x, gx * y, gy * x, gy * y, 1.0, s;
+    }
+    return true;
+  }
+
+  // J^T J, formed in its lower half and mirrored.
+  Matrix8d NormalMatrix() const {
+    Matrix8d normal = Matrix8d::Zero();
+    normal.selfadjointView<Eigen::Lower>().rankUpdate(jacobian.transpose());
+    normal.triangularView<Eigen::StrictlyUpper>() = normal.transpose();
+    return normal;
+  }
+
+  // The centre's 1-sigma, px: the grey values' noise from the residuals
+  // (n - 8 degrees of freedom) through the normal matrix to the centre.
+  double CentreSigmaPx(const Matrix8d& normal) const {
+    const double variance = residual.squaredNorm() / static_cast<double>(offsets.size() - 8);
+    const Matrix8d covariance = variance * normal.inverse();
+    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> centre_cov(covariance.topLeftCorner<2, 2>());
+    return std::sqrt(std::max(0.0, centre_cov.eigenvalues()(1)));
+  }
+};
+
+void ApplyStep(const Vector8d& delta, PatchWarp* warp, double* gain, double* offset) {
+  warp->centre += delta.head<2>();
+  warp->affine(0, 0) += delta(2);
+  warp->affine(0, 1) += delta(3);
+  warp->affine(1, 0) += delta(4);
+  warp->affine(1, 1) += delta(5);
+  *offset += delta(6);
+  *gain += delta(7);
+}
+
 }  // namespace
 
 std::optional<PatchFit> RefinePatch(const cv::Mat& reference, const Eigen::Vector2d& reference_pixel, const cv::Mat& target,
@@ -97,64 +161,21 @@ std::optional<PatchFit> RefinePatch(const cv::Mat& reference, const Eigen::Vecto
       !Inside(reference, reference_pixel.x() + h, reference_pixel.y() + h, 1)) {
     return std::nullopt;
   }
-  // The buffers live as long as the thread: a triangulation refines
-  // hundreds of thousands of patches of the same size.
-  thread_local PatchBuffers buffers;
-  const size_t n = static_cast<size_t>((2 * h + 1) * (2 * h + 1));
-  buffers.Resize(n);
-  std::vector<Eigen::Vector2d>& offsets = buffers.offsets;
-  std::vector<double>& templ = buffers.templ;
-  for (int dy = -h, i = 0; dy <= h; ++dy) {
-    for (int dx = -h; dx <= h; ++dx, ++i) {
-      offsets[static_cast<size_t>(i)] = Eigen::Vector2d(dx, dy);
-      templ[static_cast<size_t>(i)] = Sample(reference, reference_pixel.x() + dx, reference_pixel.y() + dy);
-    }
-  }
+  thread_local PatchBuffers patch;
+  patch.SampleTemplate(reference, reference_pixel, h);
   PatchFit fit;
   fit.warp = start;
   double gain = 1, offset = 0;
-  using Vector8d = Eigen::Matrix<double, 8, 1>;
-  using Matrix8d = Eigen::Matrix<double, 8, 8>;
-  // One row of the Jacobian per pixel; the normal matrix is then one
-  // product (vectorised by Eigen), a third of the time of summing the
-  // pixels' outer products one by one, and only its lower half.
-  Eigen::Matrix<double, Eigen::Dynamic, 8>& jacobian = buffers.jacobian;
-  Eigen::VectorXd& residual = buffers.residual;
-  std::vector<double>& warped = buffers.warped;
   Matrix8d normal;
-  double sum_sq = 0;
   bool converged = false;
   for (fit.iterations = 1; fit.iterations <= options.max_iterations; ++fit.iterations) {
-    for (size_t i = 0; i < n; ++i) {
-      const Eigen::Vector2d w = fit.warp.centre + fit.warp.affine * offsets[i];
-      // Central differences over two pixels (half the noise of the
-      // bilinear patch's own slope, measured in the tests) need a pixel on
-      // each side, bilinear one more.
-      if (!Inside(target, w.x(), w.y(), 2)) return std::nullopt;
-      const SampleWithSlope at = SampleAndSlope(target, w.x(), w.y());
-      const double s = at.value, gx = gain * at.gx, gy = gain * at.gy;
-      warped[i] = s;
-      const double x = offsets[i].x(), y = offsets[i].y();
-      const Eigen::Index row = static_cast<Eigen::Index>(i);
-      residual(row) = templ[i] - (gain * s + offset);
-      jacobian.row(row) << gx, gy, gx * x, gx * y, gy * x, gy * y, 1.0, s;
-    }
-    normal.setZero();
-    normal.selfadjointView<Eigen::Lower>().rankUpdate(jacobian.transpose());
-    normal.triangularView<Eigen::StrictlyUpper>() = normal.transpose();
-    const Vector8d rhs = jacobian.transpose() * residual;
-    sum_sq = residual.squaredNorm();
+    if (!patch.Linearise(target, fit.warp, gain, offset)) return std::nullopt;
+    normal = patch.NormalMatrix();
     const Eigen::LDLT<Matrix8d> ldlt(normal);
     if (ldlt.info() != Eigen::Success) return std::nullopt;
-    const Vector8d delta = ldlt.solve(rhs);
+    const Vector8d delta = ldlt.solve(patch.jacobian.transpose() * patch.residual);
     if (!delta.allFinite()) return std::nullopt;
-    fit.warp.centre += delta.head<2>();
-    fit.warp.affine(0, 0) += delta(2);
-    fit.warp.affine(0, 1) += delta(3);
-    fit.warp.affine(1, 0) += delta(4);
-    fit.warp.affine(1, 1) += delta(5);
-    offset += delta(6);
-    gain += delta(7);
+    ApplyStep(delta, &fit.warp, &gain, &offset);
     if ((fit.warp.centre - start.centre).norm() > options.max_shift_px || !(gain > 0.2 && gain < 5)) return std::nullopt;
     if (delta.head<2>().norm() < options.converged_px) {
       converged = true;
@@ -162,13 +183,8 @@ std::optional<PatchFit> RefinePatch(const cv::Mat& reference, const Eigen::Vecto
     }
   }
   if (!converged) return std::nullopt;
-  // Noise of the grey values from the residuals (n - 8 degrees of freedom),
-  // through the normal matrix to the centre.
-  const double variance = sum_sq / static_cast<double>(n - 8);
-  const Matrix8d covariance = variance * normal.inverse();
-  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> centre_cov(covariance.topLeftCorner<2, 2>());
-  fit.sigma_px = std::sqrt(std::max(0.0, centre_cov.eigenvalues()(1)));
-  fit.correlation = Correlation(templ, warped);
+  fit.sigma_px = patch.CentreSigmaPx(normal);
+  fit.correlation = Correlation(patch.templ, patch.warped);
   if (!(fit.sigma_px <= options.max_sigma_px) || !(fit.correlation >= options.min_correlation)) return std::nullopt;
   return fit;
 }
