@@ -95,6 +95,22 @@ std::vector<std::vector<cv::Mat>> CoarseLevels(const std::vector<PosedKeyframe>&
   return levels;
 }
 
+// The epipolar lines' error across themselves, px, from the free fits'
+// distances across them (1.4826 times the median absolute distance: a
+// standard deviation that the few wrong fits do not inflate); 0 when there
+// are too few fits to tell.
+double EpipolarSigmaPx(const std::vector<TrackRefinementReport>& reports) {
+  constexpr size_t kMinFits = 30;
+  std::vector<double> distances;
+  for (const TrackRefinementReport& report : reports) {
+    for (const double across : report.across_epipolar_px) distances.push_back(std::abs(across));
+  }
+  if (distances.size() < kMinFits) return 0.0;
+  const auto middle = distances.begin() + static_cast<std::ptrdiff_t>(distances.size() / 2);
+  std::nth_element(distances.begin(), middle, distances.end());
+  return 1.4826 * *middle;
+}
+
 }  // namespace
 
 std::vector<int> FeatureMap::OverlappingKeyframes(const PosedKeyframe& added, int earlier_count) const {
@@ -358,11 +374,24 @@ std::vector<FeaturePoint> FeatureMap::Triangulate(const PoseMap& cam_from_world,
     while (tracks[t].id != first[i].track) ++t;
     track_of[i] = t;
   }
+  const double unrefined_sigma_px = options_.keep_unrefined_views ? options_.triangulation.feature_sigma_px : 0.0;
+  const auto refine = [&](size_t i, double epipolar_sigma_px, TrackRefinementReport* report) {
+    return RefineTrackViews(tracks[track_of[i]], first[i], cam_from_world, image_of, camera, options_.refinement,
+                            unrefined_sigma_px, epipolar_sigma_px, report);
+  };
+  // The epipolar lines' error, from the free fits of every k-th track
+  // (about kEpipolarSampleTracks of them: its median to a few per cent).
+  if (options_.epipolar_fallback && !first.empty()) {
+    constexpr size_t kEpipolarSampleTracks = 2000;
+    const size_t stride = std::max<size_t>(1, first.size() / kEpipolarSampleTracks);
+    std::vector<TrackRefinementReport> sample((first.size() + stride - 1) / stride);
+    ParallelFor(sample.size(), threads, [&](size_t k) { refine(k * stride, 0.0, &sample[k]); });
+    counts.epipolar_sigma_px = EpipolarSigmaPx(sample);
+  }
   std::vector<FeatureTrack> refined(first.size());
-  ParallelFor(first.size(), threads, [&](size_t i) {
-    refined[i] = RefineTrackViews(tracks[track_of[i]], first[i], cam_from_world, image_of, camera, options_.refinement,
-                                  options_.keep_unrefined_views ? options_.triangulation.feature_sigma_px : 0.0);
-  });
+  std::vector<TrackRefinementReport> reports(first.size());
+  ParallelFor(first.size(), threads, [&](size_t i) { refined[i] = refine(i, counts.epipolar_sigma_px, &reports[i]); });
+  for (const TrackRefinementReport& report : reports) counts.line_fits += report.line_fits;
   refined.erase(std::remove_if(refined.begin(), refined.end(), [](const FeatureTrack& r) { return r.observations.empty(); }),
                 refined.end());
   counts.refinement_dropped = static_cast<int>(first.size() - refined.size());

@@ -1,6 +1,7 @@
 #include "tagsfm/feature/patch_refinement.h"
 
 #include <cmath>
+#include <limits>
 #include <vector>
 
 #include <Eigen/Cholesky>
@@ -139,6 +140,25 @@ struct PatchBuffers {
     const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> centre_cov(covariance.topLeftCorner<2, 2>());
     return std::sqrt(std::max(0.0, centre_cov.eigenvalues()(1)));
   }
+
+  // The same for a centre held to a line (direction `along`): the noise
+  // from the residuals (n - 7 degrees of freedom) to the position on the
+  // line, and the error a shift of the line across itself by
+  // `across_sigma_px` puts into it (the patch's coupling of the two
+  // directions: nothing for an edge across the line, much for one
+  // nearly along it).
+  double LineSigmaPx(const Matrix8d& normal, const Eigen::Vector2d& along, double across_sigma_px) const {
+    const Eigen::Matrix<double, 6, 6> others = normal.bottomRightCorner<6, 6>();
+    const Eigen::LDLT<Eigen::Matrix<double, 6, 6>> others_ldlt(others);
+    const Eigen::Matrix2d centre_info =
+        normal.topLeftCorner<2, 2>() - normal.topRightCorner<2, 6>() * others_ldlt.solve(normal.bottomLeftCorner<6, 2>());
+    const Eigen::Vector2d across(-along.y(), along.x());
+    const double info_along = along.dot(centre_info * along);
+    if (!(info_along > 0)) return std::numeric_limits<double>::infinity();
+    const double coupling = along.dot(centre_info * across) / info_along;
+    const double variance = residual.squaredNorm() / static_cast<double>(offsets.size() - 7);
+    return std::sqrt(variance / info_along + coupling * coupling * across_sigma_px * across_sigma_px);
+  }
 };
 
 void ApplyStep(const Vector8d& delta, PatchWarp* warp, double* gain, double* offset) {
@@ -154,7 +174,8 @@ void ApplyStep(const Vector8d& delta, PatchWarp* warp, double* gain, double* off
 }  // namespace
 
 std::optional<PatchFit> RefinePatch(const cv::Mat& reference, const Eigen::Vector2d& reference_pixel, const cv::Mat& target,
-                                    const PatchWarp& start, const PatchRefinementOptions& options) {
+                                    const PatchWarp& start, const PatchRefinementOptions& options,
+                                    const std::optional<PatchLine>& line) {
   const int h = options.half_window;
   if (reference.type() != CV_8UC1 || target.type() != CV_8UC1) return std::nullopt;
   if (!Inside(reference, reference_pixel.x() - h, reference_pixel.y() - h, 0) ||
@@ -171,9 +192,22 @@ std::optional<PatchFit> RefinePatch(const cv::Mat& reference, const Eigen::Vecto
   for (fit.iterations = 1; fit.iterations <= options.max_iterations; ++fit.iterations) {
     if (!patch.Linearise(target, fit.warp, gain, offset)) return std::nullopt;
     normal = patch.NormalMatrix();
-    const Eigen::LDLT<Matrix8d> ldlt(normal);
-    if (ldlt.info() != Eigen::Success) return std::nullopt;
-    const Vector8d delta = ldlt.solve(patch.jacobian.transpose() * patch.residual);
+    const Vector8d gradient = patch.jacobian.transpose() * patch.residual;
+    Vector8d delta;
+    if (line) {
+      // The centre moves along the line only: the step in (t, the other 6)
+      // through the map P from those 7 to the 8 free parameters.
+      Eigen::Matrix<double, 8, 7> p = Eigen::Matrix<double, 8, 7>::Zero();
+      p.block<2, 1>(0, 0) = line->direction;
+      p.bottomRightCorner<6, 6>().setIdentity();
+      const Eigen::LDLT<Eigen::Matrix<double, 7, 7>> ldlt(p.transpose() * normal * p);
+      if (ldlt.info() != Eigen::Success) return std::nullopt;
+      delta = p * ldlt.solve(p.transpose() * gradient);
+    } else {
+      const Eigen::LDLT<Matrix8d> ldlt(normal);
+      if (ldlt.info() != Eigen::Success) return std::nullopt;
+      delta = ldlt.solve(gradient);
+    }
     if (!delta.allFinite()) return std::nullopt;
     ApplyStep(delta, &fit.warp, &gain, &offset);
     if ((fit.warp.centre - start.centre).norm() > options.max_shift_px || !(gain > 0.2 && gain < 5)) return std::nullopt;
@@ -183,7 +217,7 @@ std::optional<PatchFit> RefinePatch(const cv::Mat& reference, const Eigen::Vecto
     }
   }
   if (!converged) return std::nullopt;
-  fit.sigma_px = patch.CentreSigmaPx(normal);
+  fit.sigma_px = line ? patch.LineSigmaPx(normal, line->direction, line->across_sigma_px) : patch.CentreSigmaPx(normal);
   fit.correlation = Correlation(patch.templ, patch.warped);
   if (!(fit.sigma_px <= options.max_sigma_px) || !(fit.correlation >= options.min_correlation)) return std::nullopt;
   return fit;

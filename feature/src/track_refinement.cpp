@@ -27,11 +27,12 @@ Eigen::Matrix2d PlaneToPixel(const Eigen::Vector3d& point, const Eigen::Matrix<d
 // the full image); `start` and the fit are in full-image pixels.
 std::optional<PatchFit> RefineOnLevels(const cv::Mat& reference, const Eigen::Vector2d& reference_pixel, const cv::Mat& target,
                                        PatchWarp start, const PatchRefinementOptions& options, int reference_level,
-                                       int target_level) {
+                                       int target_level, std::optional<PatchLine> line = std::nullopt) {
   const double reference_size = std::ldexp(1.0, reference_level), target_size = std::ldexp(1.0, target_level);
   start.centre /= target_size;
   start.affine *= reference_size / target_size;
-  std::optional<PatchFit> fit = RefinePatch(reference, reference_pixel / reference_size, target, start, options);
+  if (line) line->across_sigma_px /= target_size;
+  std::optional<PatchFit> fit = RefinePatch(reference, reference_pixel / reference_size, target, start, options, line);
   if (fit) {
     fit->warp.centre *= target_size;
     fit->warp.affine *= target_size / reference_size;
@@ -55,6 +56,54 @@ FitLevels BalancedLevels(const Eigen::Matrix2d& affine, const PatchRefinementOpt
   return {std::max(0, -k), std::max(0, k)};
 }
 
+// The reference pixel's ray: the reference camera's centre, the unit
+// direction, and the first point's depth along it.
+struct ReferenceRay {
+  Eigen::Vector3d origin, direction;
+  double depth;
+};
+
+// The ray's epipolar line in `target` where the point at the ray's depth
+// projects: that projection and the line's unit direction there. nullopt
+// when the depth barely moves the projection (the view tells no depth).
+std::optional<PatchLine> EpipolarLine(const ReferenceRay& ray, const Rigid3d& target, const CameraModel& camera,
+                                      Eigen::Vector2d* centre) {
+  const double step = 1e-3 * ray.depth;
+  const Eigen::Vector3d near = target * (ray.origin + (ray.depth - step) * ray.direction);
+  const Eigen::Vector3d far = target * (ray.origin + (ray.depth + step) * ray.direction);
+  if (!(ray.depth > 0 && near.z() > 0 && far.z() > 0)) return std::nullopt;
+  const Eigen::Vector2d slope = camera.Project(far) - camera.Project(near);
+  if (!(slope.norm() > 1e-6)) return std::nullopt;
+  *centre = camera.Project(target * (ray.origin + ray.depth * ray.direction));
+  return PatchLine{slope.normalized(), 0.0};
+}
+
+// One view's fit: free from `start`, and when that is refused and
+// `epipolar_sigma_px` > 0, again with the centre on the reference ray's
+// epipolar line. The free fit's distance across the line goes in `report`.
+std::optional<PatchFit> FitView(const cv::Mat& reference_image, const Eigen::Vector2d& reference_pixel, const cv::Mat& target,
+                                const PatchWarp& start, const FitLevels& levels, const ReferenceRay& ray,
+                                const Rigid3d& target_pose, const CameraModel& camera,
+                                const PatchRefinementOptions& options, double epipolar_sigma_px,
+                                TrackRefinementReport* report) {
+  std::optional<PatchFit> fit =
+      RefineOnLevels(reference_image, reference_pixel, target, start, options, levels.reference, levels.target);
+  Eigen::Vector2d on_line;
+  std::optional<PatchLine> line = EpipolarLine(ray, target_pose, camera, &on_line);
+  if (!line) return fit;
+  if (fit) {
+    const Eigen::Vector2d across(-line->direction.y(), line->direction.x());
+    if (report != nullptr) report->across_epipolar_px.push_back(across.dot(fit->warp.centre - on_line));
+    return fit;
+  }
+  if (!(epipolar_sigma_px > 0)) return fit;
+  line->across_sigma_px = epipolar_sigma_px;
+  PatchWarp line_start = start;
+  line_start.centre = on_line;
+  fit = RefineOnLevels(reference_image, reference_pixel, target, line_start, options, levels.reference, levels.target, line);  if (fit && report != nullptr) ++report->line_fits;
+  return fit;
+}
+
 }  // namespace
 
 Eigen::Matrix2d PredictPatchAffine(const Eigen::Vector3d& point, const Eigen::Vector3d& normal, const Rigid3d& reference,
@@ -73,7 +122,8 @@ Eigen::Matrix2d PredictPatchAffine(const Eigen::Vector3d& point, const Eigen::Ve
 
 FeatureTrack RefineTrackViews(const FeatureTrack& track, const FeaturePoint& point, const PoseMap& cam_from_world,
                               const KeyframeImageLookup& image_of, const CameraModel& camera,
-                              const PatchRefinementOptions& options, double unrefined_sigma_px) {
+                              const PatchRefinementOptions& options, double unrefined_sigma_px, double epipolar_sigma_px,
+                              TrackRefinementReport* report) {
   struct View {
     TrackObservation observation;
     Rigid3d pose;
@@ -104,6 +154,10 @@ FeatureTrack RefineTrackViews(const FeatureTrack& track, const FeaturePoint& poi
   // Where the point projects in the reference, against its SIFT pixel: the
   // prediction in each other view is offset by the same patch shift.
   const Eigen::Vector2d reference_offset = reference_pixel - camera.Project(reference->pose * point.position);
+  ReferenceRay ray;
+  ray.origin = reference->pose.Center();
+  ray.direction = (reference->pose.rotation.conjugate() * camera.PixelToNormalized(reference_pixel).homogeneous()).normalized();
+  ray.depth = (point.position - ray.origin).dot(ray.direction);
   int unrefined = 0;
   for (const View& v : views) {
     if (&v == &*reference) {
@@ -116,10 +170,11 @@ FeatureTrack RefineTrackViews(const FeatureTrack& track, const FeaturePoint& poi
     const FitLevels levels = BalancedLevels(start.affine, options);
     const cv::Mat* reference_image = image_of(reference->observation.frame, levels.reference);
     const cv::Mat* target = image_of(v.observation.frame, levels.target);
-    const std::optional<PatchFit> fit =
-        reference_image == nullptr || target == nullptr
-            ? std::nullopt
-            : RefineOnLevels(*reference_image, reference_pixel, *target, start, options, levels.reference, levels.target);
+    std::optional<PatchFit> fit;
+    if (reference_image != nullptr && target != nullptr) {
+      fit = FitView(*reference_image, reference_pixel, *target, start, levels, ray, v.pose, camera, options,
+                    epipolar_sigma_px, report);
+    }
     if (!fit) {
       if (unrefined_sigma_px <= 0) continue;
       TrackObservation kept = v.observation;

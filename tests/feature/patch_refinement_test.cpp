@@ -180,6 +180,65 @@ TEST(PatchRefinement, RefusesWrongAndFlatPatches) {
   EXPECT_GT(fit->correlation, 0.95);
 }
 
+// A straight grey edge through `through` with unit normal at `normal_deg`,
+// blurred by a Gaussian of `blur` px, dark 70 to bright 180, with noise.
+cv::Mat RenderEdge(int size, const Eigen::Vector2d& through, double normal_deg, double blur, double noise, unsigned seed) {
+  const double a = normal_deg * M_PI / 180;
+  const Eigen::Vector2d normal(std::cos(a), std::sin(a));
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> n(0, noise);
+  cv::Mat out(size, size, CV_8U);
+  for (int y = 0; y < size; ++y) {
+    for (int x = 0; x < size; ++x) {
+      const double d = normal.dot(Eigen::Vector2d(x, y) - through);
+      const double v = 70 + 110 * 0.5 * (1 + std::erf(d / (std::sqrt(2.0) * blur)));
+      out.at<std::uint8_t>(y, x) = cv::saturate_cast<std::uint8_t>(v + n(rng));
+    }
+  }
+  return out;
+}
+
+// A patch on a straight edge is located across the edge only: a free fit
+// slides along it and is refused. Held to a line the edge crosses (the
+// epipolar line, here the image's x axis), the fit finds the crossing; a
+// line known to sigma_a across itself adds sigma_a / tan(angle between
+// edge and line) along it, so an edge running nearly along the line is
+// refused. Edges at 30-150 degrees to the line, two blurs, noise 2.
+TEST(PatchRefinement, AnEdgeIsFoundAlongALineItCrosses) {
+  const Eigen::Vector2d reference_pixel(32, 32.3);
+  unsigned seed = 1;
+  for (const double edge_deg : {30.0, 60.0, 90.0, 125.0, 150.0}) {
+    for (const double blur : {0.8, 1.5}) {
+      const double shift = 2.3;  // the edge lies 2.3 px further right in the target, along the line
+      const cv::Mat reference = RenderEdge(64, reference_pixel, edge_deg + 90, blur, 2, ++seed);
+      const cv::Mat target = RenderEdge(64, reference_pixel + Eigen::Vector2d(shift, 0), edge_deg + 90, blur, 2, ++seed);
+      const Eigen::Vector2d truth = reference_pixel + Eigen::Vector2d(shift, 0);
+      PatchWarp start;
+      start.centre = truth + Eigen::Vector2d(-1.1, 0);  // on the line, 1.1 px short
+      EXPECT_FALSE(RefinePatch(reference, reference_pixel, target, start, {}).has_value()) << edge_deg << " " << blur;
+      const std::optional<PatchFit> exact = RefinePatch(reference, reference_pixel, target, start, {}, PatchLine{{1, 0}, 0.0});
+      ASSERT_TRUE(exact.has_value()) << edge_deg << " " << blur;
+      EXPECT_LT((exact->warp.centre - truth).norm(), 0.05) << edge_deg << " " << blur;
+      EXPECT_NEAR(exact->warp.centre.y(), truth.y(), 1e-9);  // it stays on the line
+      const double across = 0.05;
+      PatchRefinementOptions loose;
+      loose.max_sigma_px = 1;
+      const std::optional<PatchFit> uncertain =
+          RefinePatch(reference, reference_pixel, target, start, loose, PatchLine{{1, 0}, across});
+      ASSERT_TRUE(uncertain.has_value());
+      const double along_per_across = 1 / std::tan(edge_deg * M_PI / 180);
+      const double expected = std::hypot(exact->sigma_px, along_per_across * across);
+      EXPECT_NEAR(uncertain->sigma_px, expected, 0.1 * expected) << edge_deg << " " << blur;
+    }
+  }
+  // An edge 8 degrees off the line: 0.05 px across is 0.36 px along.
+  const cv::Mat reference = RenderEdge(64, reference_pixel, 98, 1.0, 2, 90);
+  const cv::Mat target = RenderEdge(64, reference_pixel + Eigen::Vector2d(2, 0), 98, 1.0, 2, 91);
+  PatchWarp start;
+  start.centre = reference_pixel + Eigen::Vector2d(1, 0);
+  EXPECT_FALSE(RefinePatch(reference, reference_pixel, target, start, {}, PatchLine{{1, 0}, 0.05}).has_value());
+}
+
 TEST(PatchRefinement, OptionsAndPatchesNearTheBorderAreChecked) {
   PatchRefinementOptions options;
   options.half_window = 1;
@@ -284,6 +343,40 @@ TEST(TrackRefinement, ARefusedFitKeepsItsPixelAtTheDetectorsNoise) {
   two.observations.erase(two.observations.begin());
   point.observations.erase(point.observations.begin());
   EXPECT_TRUE(refine(none_fit, 0.5, two).observations.empty());
+}
+
+// Three cameras side by side over a plane with one straight edge on it,
+// 1 px apart in the image: the epipolar lines run along x. The free fits
+// slide along the edge and are refused, so the track is lost; with the
+// lines' error given, each view is fitted along its line to where the
+// edge crosses it, the truth's projection, and counted as a line fit.
+TEST(TrackRefinement, AnEdgeIsFittedAlongTheEpipolarLines) {
+  const CameraModel camera = testing::PinholeCamera(64, 64, 100, 31.5, 31.5);
+  const double depth = 2.0, step = 0.02;
+  PoseMap poses;
+  for (FrameId k = 0; k < 3; ++k) poses[k] = Rigid3d(Eigen::Quaterniond::Identity(), Eigen::Vector3d(-step * double(k), 0, 0));
+  const Eigen::Vector3d truth(-0.004 + step, 0.022, depth);
+  for (const double normal_deg : {20.0, 45.0, 110.0}) {
+    std::map<FrameId, cv::Mat> images;
+    for (FrameId k = 0; k < 3; ++k) {
+      images[k] = RenderEdge(64, camera.Project(poses[k] * truth), normal_deg, 1.0, 2, 50 + static_cast<unsigned>(k));
+    }
+    const KeyframeImageLookup image_of = [&](FrameId frame, int level) { return level == 0 ? &images.at(frame) : nullptr; };
+    const TrackAndPoint sift = SiftTrack(5, truth, poses, camera, [](FrameId k) { return Eigen::Vector2d(k == 1 ? 0 : 0.4, 0); });
+    TrackRefinementReport free_only;
+    EXPECT_TRUE(RefineTrackViews(sift.track, sift.point, poses, image_of, camera, {}, 0.0, 0.0, &free_only).observations.empty());
+    EXPECT_EQ(free_only.line_fits, 0);
+    TrackRefinementReport report;
+    const FeatureTrack refined = RefineTrackViews(sift.track, sift.point, poses, image_of, camera, {}, 0.0, 0.02, &report);
+    ASSERT_EQ(refined.observations.size(), 3u) << normal_deg;
+    EXPECT_EQ(report.line_fits, 2);
+    for (const TrackObservation& o : refined.observations) {
+      EXPECT_LT((o.pixel - camera.Project(poses[o.frame] * truth)).norm(), 0.05) << normal_deg << " frame " << o.frame;
+      if (o.frame != 1) {
+        EXPECT_LT(o.sigma_px, 0.1);
+      }
+    }
+  }
 }
 
 // A walk that comes closer and backs off: one camera sees the textured

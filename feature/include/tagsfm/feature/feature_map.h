@@ -42,6 +42,12 @@ struct FeatureMapOptions {
   // on real photos 16-40 % more points, on the rendered box walk 0.6 % more
   // at 1.1 points less of the share within 2 mm (docs/features.md).
   bool keep_unrefined_views = false;
+  // A view whose free fit is refused is fitted again along its reference
+  // pixel's epipolar line (track_refinement.h), with the lines' error
+  // measured from the free fits (FeatureTriangulationStats). On the room
+  // walk of real photos (edges of doors and frames) 1.5x the points, on the
+  // rendered box walk 1 % more (docs/features.md).
+  bool epipolar_fallback = true;
   int max_neighbours = 8;  // earlier keyframes a new one is matched with, most overlapping first
   // Share of the new keyframe's view (a grid of rays at its typical scene
   // depth) that must fall inside an earlier keyframe's image.

@@ -50,10 +50,22 @@ struct PatchWarp {
   Eigen::Matrix2d affine = Eigen::Matrix2d::Identity();
 };
 
+// A line the fitted centre must stay on (through the start's centre): the
+// epipolar line of the reference pixel when the poses are known. The fit
+// then finds where along it the patch lies, which an edge crossing the line
+// fixes although it leaves a free fit sliding along itself.
+struct PatchLine {
+  Eigen::Vector2d direction = Eigen::Vector2d::UnitX();  // unit, target image
+  // How far the true line may lie across itself, px (the poses' and the
+  // lens' error): enters the fit's sigma through the patch's coupling of
+  // the two directions.
+  double across_sigma_px = 0;
+};
+
 struct PatchFit {
   PatchWarp warp;
   double correlation = 0;  // normalised cross-correlation at the fit
-  double sigma_px = 0;     // predicted standard deviation of warp.centre, worse axis
+  double sigma_px = 0;     // predicted standard deviation of warp.centre: worse axis, or along the line
   int iterations = 0;
 };
 
@@ -62,6 +74,7 @@ struct PatchFit {
 // (centres at integers). nullopt when the patch leaves either image, the
 // fit does not converge, or it fails one of the options' checks.
 std::optional<PatchFit> RefinePatch(const cv::Mat& reference, const Eigen::Vector2d& reference_pixel, const cv::Mat& target,
-                                    const PatchWarp& start, const PatchRefinementOptions& options);
+                                    const PatchWarp& start, const PatchRefinementOptions& options,
+                                    const std::optional<PatchLine>& line = std::nullopt);
 
 }  // namespace tagsfm

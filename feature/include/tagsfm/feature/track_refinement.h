@@ -28,10 +28,22 @@ using KeyframeImageLookup = std::function<const cv::Mat*(FrameId, int level)>;
 Eigen::Matrix2d PredictPatchAffine(const Eigen::Vector3d& point, const Eigen::Vector3d& normal, const Rigid3d& reference,
                                    const Rigid3d& target, const CameraModel& camera);
 
+// What RefineTrackViews saw besides the track.
+struct TrackRefinementReport {
+  // Each free fit's signed distance across its reference pixel's epipolar
+  // line, px: the poses' and the lens' error there, and the fit's noise.
+  std::vector<double> across_epipolar_px;
+  int line_fits = 0;  // views fitted along the line after their free fit was refused
+};
+
 // `track`'s views that are in `point` (a first triangulation of it), each
 // but the reference moved to where the reference patch fits. A view whose
-// fit is refused keeps its own pixel with sigma_px = `unrefined_sigma_px`
-// (its detector's noise), or is dropped when that is 0. The reference is
+// free fit is refused is fitted again along the reference pixel's
+// epipolar line (PatchLine) when `epipolar_sigma_px` (the line's error
+// across itself) is above 0: an edge across the line then gives the depth
+// that the free fit, sliding along the edge, cannot. A view refused both
+// ways keeps its own pixel with sigma_px = `unrefined_sigma_px` (its
+// detector's noise), or is dropped when that is 0. The reference is
 // the view nearest the mean viewing direction; the fits run on the level
 // that the reference feature's scale asks for (PatchRefinementOptions::
 // level_scale_px). Views are left out when they have no image. An empty track when fewer than two views remain,
@@ -39,6 +51,7 @@ Eigen::Matrix2d PredictPatchAffine(const Eigen::Vector3d& point, const Eigen::Ve
 // cannot tell a wrong match from a right one, a third must agree with them.
 FeatureTrack RefineTrackViews(const FeatureTrack& track, const FeaturePoint& point, const PoseMap& cam_from_world,
                               const KeyframeImageLookup& image_of, const CameraModel& camera,
-                              const PatchRefinementOptions& options, double unrefined_sigma_px = 0);
+                              const PatchRefinementOptions& options, double unrefined_sigma_px = 0,
+                              double epipolar_sigma_px = 0, TrackRefinementReport* report = nullptr);
 
 }  // namespace tagsfm

@@ -72,6 +72,10 @@ struct TrackTriangulationStats {
 // (track_refinement.h), the final pass (refined pixels). Without refinement, only `final_pass`.
 struct FeatureTriangulationStats {
   TrackTriangulationStats first_pass;
+  // The epipolar lines' error across themselves measured from the free
+  // fits, px (0: not measured), and the views fitted along a line.
+  double epipolar_sigma_px = 0;
+  int line_fits = 0;
   int refinement_dropped = 0;
   TrackTriangulationStats final_pass;
 };
