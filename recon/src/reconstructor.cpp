@@ -19,6 +19,7 @@ Status ReconstructorOptions::Check() const {
   if (remap_after_outlier_frames < 1) return MakeError("recon.remap_after_outlier_frames must be >= 1");
   if (bootstrap_max_frames < 1) return MakeError("recon.bootstrap_max_frames must be >= 1");
   if (max_retained_frames < 2) return MakeError("recon.max_retained_frames must be >= 2");
+  if (!(points_refit_shift_px > 0)) return MakeError("recon.points_refit_shift_px must be > 0");
   if (!(bootstrap_min_angle_deg >= 0)) return MakeError("recon.bootstrap_min_angle_deg must be >= 0");
   if (!(keyframe_min_translation_ratio >= 0)) return MakeError("recon.keyframe_min_translation_ratio must be >= 0");
   if (!(keyframe_min_rotation_deg >= 0)) return MakeError("recon.keyframe_min_rotation_deg must be >= 0");
@@ -646,12 +647,7 @@ ReconstructionResult Reconstructor::Finish(const PointTriangulation& triangulate
   result.frames_thinned = frames_thinned_;
   if (options_.final_adjustment && !registered.empty()) AdjustFinally(registered, &result);
   ApplyScale(&registered, &result);
-  if (triangulate && !registered.empty()) {
-    PoseMap poses;
-    for (const FrameState* frame : registered) poses[frame->frame] = frame->cam_from_world.ToRigid();
-    result.feature_points = triangulate(poses, camera_);
-    if (options_.final_adjustment) AdjustWithPoints(registered, &result.feature_points, &result);
-  }
+  if (triangulate && !registered.empty()) TriangulateAndAdjust(registered, triangulate, &result);
   CollectReprojectionStatistics(registered, &result);
   result.camera = camera_;
   result.frames.assign(frames_.begin(), frames_.end());
@@ -828,6 +824,51 @@ void Reconstructor::ApplyScale(std::vector<FrameState*>* registered, Reconstruct
   }
   ScaleScene(fit->scale, registered, &tags_, &result->covariance);
   result->scale = *fit;
+}
+
+namespace {
+
+PoseMap PosesOf(const std::vector<FrameState*>& registered) {
+  PoseMap poses;
+  for (const FrameState* frame : registered) poses[frame->frame] = frame->cam_from_world.ToRigid();
+  return poses;
+}
+
+// How far an adjustment moved the cameras where the points are seen, px:
+// the median over the points' views of the distance between the point's
+// projections through the cameras before and after.
+double MedianShiftAtPointsPx(const PoseMap& before, const CameraModel& camera_before, const PoseMap& after,
+                             const CameraModel& camera_after, const std::vector<FeaturePoint>& points) {
+  std::vector<double> shifts;
+  for (const FeaturePoint& p : points) {
+    for (const auto& view : p.observations) {
+      const Eigen::Vector3d old_cam = before.at(view.first) * p.position, new_cam = after.at(view.first) * p.position;
+      if (old_cam.z() > 0 && new_cam.z() > 0) {
+        shifts.push_back((camera_after.Project(new_cam) - camera_before.Project(old_cam)).norm());
+      }
+    }
+  }
+  if (shifts.empty()) return 0.0;
+  const auto middle = shifts.begin() + static_cast<std::ptrdiff_t>(shifts.size() / 2);
+  std::nth_element(shifts.begin(), middle, shifts.end());
+  return *middle;
+}
+
+}  // namespace
+
+void Reconstructor::TriangulateAndAdjust(const std::vector<FrameState*>& registered, const PointTriangulation& triangulate,
+                                         ReconstructionResult* result) {
+  for (int round = 0;; ++round) {
+    const PoseMap poses = PosesOf(registered);
+    const CameraModel camera = camera_;
+    result->feature_points = triangulate(poses, camera_);
+    if (!options_.final_adjustment) return;
+    AdjustWithPoints(registered, &result->feature_points, result);
+    if (round == 1) return;
+    result->points_shift_px = MedianShiftAtPointsPx(poses, camera, PosesOf(registered), camera_, result->feature_points);
+    if (!(result->points_shift_px > options_.points_refit_shift_px)) return;
+    result->points_refitted = true;
+  }
 }
 
 void Reconstructor::AdjustWithPoints(const std::vector<FrameState*>& registered, std::vector<FeaturePoint>* points,

@@ -60,6 +60,13 @@ struct ReconstructorOptions {
   // length when the scale comes from the tags (no scale bars). 2e-4 is a
   // print checked with a calliper; an unchecked office print is ~1e-3.
   double tag_size_sigma_rel = 2e-4;
+  // The feature points' views are fitted on the targets' poses. When the
+  // adjustment with the points moves the cameras at the points by more
+  // than this (median, px: the refined views' noise), the targets alone
+  // had left the poses inconsistent with the scene (a room of real photos:
+  // 0.4 px across the epipolar lines), and the points are triangulated and
+  // adjusted once more from the adjusted poses (docs/features.md).
+  double points_refit_shift_px = 0.1;
 
   Status Check() const;
 };
@@ -142,6 +149,10 @@ class Reconstructor {
   void AdjustFinally(const std::vector<FrameState*>& registered, ReconstructionResult* result);
   // The scale from targets.scale_bars (or the tags' print tolerance without them).
   void ApplyScale(std::vector<FrameState*>* registered, ReconstructionResult* result);
+  // The feature points from the registered poses, adjusted with them, and
+  // once more from the adjusted poses when these moved (points_refit_shift_px).
+  void TriangulateAndAdjust(const std::vector<FrameState*>& registered, const PointTriangulation& triangulate,
+                            ReconstructionResult* result);
   void AdjustWithPoints(const std::vector<FrameState*>& registered, std::vector<FeaturePoint>* points,
                         ReconstructionResult* result);
   // Every tag seen but not in the map, with why (ReconstructionResult::unmapped_tags).
