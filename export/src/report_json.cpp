@@ -157,8 +157,8 @@ void AddAdjustment(const ReconstructionResult& result, nlohmann::json* report) {
   r["covariance_s"] = result.covariance_s;
   r["points_adjusted"] = result.points_adjusted;          // feature points adjusted with the targets
   r["points_adjustment_s"] = result.points_adjustment_s;
-  r["points_shift_px"] = result.points_shift_px;  // cameras moved at the points by the adjustment with them
-  r["points_refitted"] = result.points_refitted;  // the points triangulated again from the adjusted poses
+  r["points_shift_px"] = result.points_shift_px;  // cameras moved at the points by the last adjustment with them
+  r["points_refits"] = result.points_refits;      // times the points were triangulated again from the adjusted poses
   r["window_solves_failed"] = result.window_solves_failed;
   r["frames_thinned"] = result.frames_thinned;  // tag views given back in a long capture (recon.max_retained_frames)  // undone, see SlidingWindowBundleAdjuster::Solve
   if (result.anchor_tag) r["anchor_tag"] = *result.anchor_tag;

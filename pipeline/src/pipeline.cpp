@@ -199,7 +199,7 @@ Result<PipelineResult> Pipeline::Finish() {
     triangulate = [&s](const PoseMap& poses, const CameraModel& camera) {
       const auto t0 = std::chrono::steady_clock::now();
       auto points = s.features->Triangulate(poses, camera, &s.stats.feature_triangulation);
-      s.stats.triangulation_s += MsSince(t0) / 1000.0;  // summed: the points may be triangulated twice (recon.points_refit_shift_px)
+      s.stats.triangulation_s += MsSince(t0) / 1000.0;  // summed: the points may be triangulated again (recon.max_points_refits)
       return points;
     };
   }

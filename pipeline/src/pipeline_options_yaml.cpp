@@ -79,6 +79,7 @@ void ReadRecon(YamlFields f, ReconstructorOptions* o) {
   f.Read("keyframe_min_rotation_deg", &o->keyframe_min_rotation_deg);
   f.Read("final_adjustment", &o->final_adjustment);
   f.Read("points_refit_shift_px", &o->points_refit_shift_px);
+  f.Read("max_points_refits", &o->max_points_refits);
   f.Read("refine_intrinsics", &o->refine_intrinsics);
   f.Read("tag_size_sigma_rel", &o->tag_size_sigma_rel);
   f.Done();

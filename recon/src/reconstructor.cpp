@@ -20,6 +20,7 @@ Status ReconstructorOptions::Check() const {
   if (bootstrap_max_frames < 1) return MakeError("recon.bootstrap_max_frames must be >= 1");
   if (max_retained_frames < 2) return MakeError("recon.max_retained_frames must be >= 2");
   if (!(points_refit_shift_px > 0)) return MakeError("recon.points_refit_shift_px must be > 0");
+  if (max_points_refits < 0) return MakeError("recon.max_points_refits must be >= 0");
   if (!(bootstrap_min_angle_deg >= 0)) return MakeError("recon.bootstrap_min_angle_deg must be >= 0");
   if (!(keyframe_min_translation_ratio >= 0)) return MakeError("recon.keyframe_min_translation_ratio must be >= 0");
   if (!(keyframe_min_rotation_deg >= 0)) return MakeError("recon.keyframe_min_rotation_deg must be >= 0");
@@ -864,10 +865,9 @@ void Reconstructor::TriangulateAndAdjust(const std::vector<FrameState*>& registe
     result->feature_points = triangulate(poses, camera_);
     if (!options_.final_adjustment) return;
     AdjustWithPoints(registered, &result->feature_points, result);
-    if (round == 1) return;
     result->points_shift_px = MedianShiftAtPointsPx(poses, camera, PosesOf(registered), camera_, result->feature_points);
-    if (!(result->points_shift_px > options_.points_refit_shift_px)) return;
-    result->points_refitted = true;
+    if (!(result->points_shift_px > options_.points_refit_shift_px) || round == options_.max_points_refits) return;
+    ++result->points_refits;
   }
 }
 

@@ -178,8 +178,8 @@ TEST(ReplayRealDataSlow, VispTagPosesAgainstReference) {
 // through `tagsfm replay` as a user runs it: every photo searched for tags,
 // the lens refined from the targets. COLMAP 3.8 on the same photos gives
 // 2,670 points at 0.61 px mean reprojection (docs/features.md); tagsfm
-// gave 1,013 before the fits along epipolar lines and the second
-// triangulation from the poses adjusted with the points, 1,981 after.
+// gave 1,013 before the fits along epipolar lines and the triangulations
+// again from the poses adjusted with the points, 2,091 after.
 TEST(ReplayRealDataSlow, SwatboticsFeaturePoints) {
   TAGSFM_REQUIRE_SHARED_DATA("swatbotics-mapping/images/mapping_feb_2014");
   TempDir scratch;
@@ -204,12 +204,12 @@ TEST(ReplayRealDataSlow, SwatboticsFeaturePoints) {
             << epipolar_sigma << " px, " << report["feature_triangulation"]["line_fits"] << " line fits; cameras moved "
             << report["points_shift_px"] << " px at the points\n";
   EXPECT_EQ(report["registered_frames"], 72);
-  // 20 % under the measured 1,981, well above the 1,013 of before.
-  EXPECT_GE(points, 1600);
+  // 20 % under the measured 2,091, well above the 1,013 of before.
+  EXPECT_GE(points, 1670);
   EXPECT_LE(rms, 0.61);  // COLMAP's
   // The targets alone leave the poses ~1 px from the scene's: the points
   // are triangulated again from the adjusted poses.
-  EXPECT_TRUE(report["points_refitted"].get<bool>());
+  EXPECT_GE(report["points_refits"].get<int>(), 1);
   EXPECT_GT(epipolar_sigma, 0.0);
 }
 

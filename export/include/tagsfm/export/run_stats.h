@@ -23,7 +23,7 @@ struct RunStats {
   int tag_search_recoveries = 0;        // of those, after a tracked tag was not where predicted
   int fine_full_frame_detections = 0;   // of those, at full resolution: the tags in view were small
   std::vector<double> feature_ms;       // feature tracking per feature keyframe
-  double triangulation_s = 0;           // feature points from the final poses (both times, when triangulated twice)
+  double triangulation_s = 0;           // feature points from the final poses (summed, when triangulated again)
   int feature_work_dropped = 0;         // feature keyframes not processed live (done at the end)
   int feature_keyframes_rematched = 0;  // matched again from their final poses (features.rematch_final_poses; the last triangulation's)
   FeatureTriangulationStats feature_triangulation;  // where the tracks went, last triangulation (report.json: why a cloud is thin)

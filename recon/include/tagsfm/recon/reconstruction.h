@@ -127,10 +127,11 @@ struct ReconstructionResult {
   int frames_thinned = 0;  // frames whose tag views were given back (ReconstructorOptions::max_retained_frames)
   int points_adjusted = 0;                   // feature points in the last adjustment with the targets
   double points_adjustment_s = 0;
-  // How far the adjustment with the points moved the cameras at them (median,
-  // px), and whether the points were then triangulated again from the new poses.
+  // How far the last adjustment with the points moved the cameras at them
+  // (median, px), and how many times the points were triangulated again
+  // from the adjusted poses.
   double points_shift_px = 0;
-  bool points_refitted = false;
+  int points_refits = 0;
   bool intrinsics_refined = false;           // `camera` is the adjusted one
   // With intrinsics_refined: fx and fy adjusted as one (the free fit's fx -
   // fy was within 3 sigma of 0: the data do not say the pixels are not square).
