@@ -100,7 +100,8 @@ std::optional<PatchFit> FitView(const cv::Mat& reference_image, const Eigen::Vec
   line->across_sigma_px = epipolar_sigma_px;
   PatchWarp line_start = start;
   line_start.centre = on_line;
-  fit = RefineOnLevels(reference_image, reference_pixel, target, line_start, options, levels.reference, levels.target, line);  if (fit && report != nullptr) ++report->line_fits;
+  fit = RefineOnLevels(reference_image, reference_pixel, target, line_start, options, levels.reference, levels.target, line);
+  if (fit && report != nullptr) ++report->line_fits;
   return fit;
 }
 
