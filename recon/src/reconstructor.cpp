@@ -859,15 +859,17 @@ double MedianShiftAtPointsPx(const PoseMap& before, const CameraModel& camera_be
 
 void Reconstructor::TriangulateAndAdjust(const std::vector<FrameState*>& registered, const PointTriangulation& triangulate,
                                          ReconstructionResult* result) {
+  PoseMap poses = PosesOf(registered);
   for (int round = 0;; ++round) {
-    const PoseMap poses = PosesOf(registered);
     const CameraModel camera = camera_;
     result->feature_points = triangulate(poses, camera_);
     if (!options_.final_adjustment) return;
     AdjustWithPoints(registered, &result->feature_points, result);
-    result->points_shift_px = MedianShiftAtPointsPx(poses, camera, PosesOf(registered), camera_, result->feature_points);
+    PoseMap adjusted = PosesOf(registered);
+    result->points_shift_px = MedianShiftAtPointsPx(poses, camera, adjusted, camera_, result->feature_points);
     if (!(result->points_shift_px > options_.points_refit_shift_px) || round == options_.max_points_refits) return;
     ++result->points_refits;
+    poses = std::move(adjusted);
   }
 }
 
@@ -907,8 +909,7 @@ void Reconstructor::AdjustWithPoints(const std::vector<FrameState*>& registered,
   result->points_adjusted = static_cast<int>(adjusted.size());
   result->points_adjustment_s = summary.solve_s;
   // Kept where the adjusted point still reprojects like a point of its kind.
-  std::map<FrameId, Rigid3d> poses;
-  for (const FrameState* frame : registered) poses[frame->frame] = frame->cam_from_world.ToRigid();
+  const PoseMap poses = PosesOf(registered);
   std::vector<FeaturePoint> kept;
   for (size_t i = 0; i < points->size(); ++i) {
     FeaturePoint p = (*points)[i];
