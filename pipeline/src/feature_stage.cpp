@@ -4,6 +4,7 @@
 #include <chrono>
 #include <condition_variable>
 #include <deque>
+#include <future>
 #include <map>
 #include <mutex>
 #include <set>
@@ -62,6 +63,19 @@ struct FeatureStage::State {
   std::thread worker;
   int opencv_threads = 0;  // OpenCV's threads before the worker started
 
+  // Without the worker: the newest keyframe's features, extracted on a
+  // thread of their own while the keyframe before is matched and the next
+  // frames are read and detected (SIFT's serial parts left a core idle).
+  // It joins the map, in order, when the next keyframe comes or the map is
+  // read (AddPending).
+  struct Pending {
+    Keyframe keyframe;
+    std::future<Result<KeyframeFeatures>> features;
+    double extraction_ms = 0;  // written by the extracting thread, read after get()
+  };
+  std::unique_ptr<Pending> pending;
+  void AddPending();
+
   void Work();
   // `threads` match the keyframe with its neighbours: one on the live
   // worker (the other core is capture's and the tags'), match_threads else.
@@ -97,6 +111,23 @@ void FeatureStage::State::Process(const Keyframe& keyframe, const cv::Mat& gray,
     keyframe_ms.push_back(SecondsSince(t0) * 1000.0);
   }
   if (into == map.get()) UpdateCloud();
+}
+
+void FeatureStage::State::AddPending() {
+  if (!pending) return;
+  std::unique_ptr<Pending> done = std::move(pending);
+  Result<KeyframeFeatures> features = done->features.get();
+  if (!features) {
+    Warn(done->keyframe.frame, features.error().message);
+    return;
+  }
+  const auto t0 = Clock::now();
+  Add(done->keyframe, std::move(*features), map.get(), options.match_threads);
+  {
+    std::lock_guard<std::mutex> lock(mutex);
+    keyframe_ms.push_back(done->extraction_ms + SecondsSince(t0) * 1000.0);
+  }
+  UpdateCloud();
 }
 
 // The live cloud: every track triangulated with the keyframes' poses as
@@ -184,7 +215,10 @@ Result<std::unique_ptr<FeatureStage>> FeatureStage::Create(const CameraModel& ca
 
 FeatureStage::FeatureStage(std::unique_ptr<State> state) : state_(std::move(state)) {}
 
-FeatureStage::~FeatureStage() { state_->StopWorker(); }
+FeatureStage::~FeatureStage() {
+  state_->StopWorker();
+  if (state_->pending) state_->pending->features.wait();  // its thread reads the state
+}
 
 bool FeatureStage::SelectKeyframe(const FrameReport& report) const { return report.registered && report.keyframe; }
 
@@ -199,7 +233,18 @@ void FeatureStage::AddKeyframe(const Frame* frame, const DetectionSet& tags, con
   s.keyframes.push_back(keyframe);
   if (!frame) return;  // Complete reads it again
   if (!s.worker.joinable()) {
-    s.Process(keyframe, frame->gray, frame->image, s.map.get(), o.match_threads);
+    // Copies: the caller may reuse its buffers while the thread reads them.
+    auto next = std::make_unique<State::Pending>();
+    next->keyframe = keyframe;
+    next->features = std::async(std::launch::async, [&s, p = next.get(), gray = frame->gray.clone(),
+                                                     colour = frame->image.clone()] {
+      const auto t0 = Clock::now();
+      Result<KeyframeFeatures> features = ExtractFeatures(gray, colour, p->keyframe.tags, s.extractor);
+      p->extraction_ms = SecondsSince(t0) * 1000.0;
+      return features;
+    });
+    s.AddPending();
+    s.pending = std::move(next);
     return;
   }
   // Copies: the capture side may reuse its buffers.
@@ -219,6 +264,7 @@ void FeatureStage::AddKeyframe(const Frame* frame, const DetectionSet& tags, con
 void FeatureStage::Complete(const FeatureFrameLoader& reload) {
   State& s = *state_;
   s.StopWorker();
+  s.AddPending();
   std::set<FrameId> failed;
   {
     std::lock_guard<std::mutex> lock(s.mutex);
@@ -248,6 +294,7 @@ void FeatureStage::Complete(const FeatureFrameLoader& reload) {
 
 std::vector<FeaturePoint> FeatureStage::Triangulate(const PoseMap& cam_from_world, const CameraModel& camera,
                                                     FeatureTriangulationStats* stats) {
+  state_->AddPending();
   if (state_->options.rematch_final_poses) {
     auto moved = state_->map->Rematch(cam_from_world, camera, state_->options.match_threads);
     std::lock_guard<std::mutex> lock(state_->mutex);
