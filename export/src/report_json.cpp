@@ -155,7 +155,7 @@ void AddAdjustment(const ReconstructionResult& result, nlohmann::json* report) {
   r["global_adjustment_converged"] = result.global_adjustment_converged;
   r["global_adjustment_s"] = result.global_adjustment_s;
   r["covariance_s"] = result.covariance_s;
-  r["points_adjusted"] = result.points_adjusted;          // feature points adjusted with the targets
+  r["points_adjusted"] = result.points_adjusted;          // feature points adjusted with the targets (the tie points)
   r["points_adjustment_s"] = result.points_adjustment_s;
   r["points_shift_px"] = result.points_shift_px;  // cameras moved at the points by the last adjustment with them
   r["points_refits"] = result.points_refits;      // times the points were triangulated again from the adjusted poses

@@ -80,6 +80,8 @@ void ReadRecon(YamlFields f, ReconstructorOptions* o) {
   f.Read("final_adjustment", &o->final_adjustment);
   f.Read("points_refit_shift_px", &o->points_refit_shift_px);
   f.Read("max_points_refits", &o->max_points_refits);
+  f.Read("tie_points_per_keyframe", &o->tie_points_per_keyframe);
+  f.Read("points_threads", &o->points_threads);
   f.Read("refine_intrinsics", &o->refine_intrinsics);
   f.Read("tag_size_sigma_rel", &o->tag_size_sigma_rel);
   f.Done();

@@ -125,7 +125,10 @@ struct ReconstructionResult {
   bool global_adjustment_converged = false;
   int window_solves_failed = 0;
   int frames_thinned = 0;  // frames whose tag views were given back (ReconstructorOptions::max_retained_frames)
-  int points_adjusted = 0;                   // feature points in the last adjustment with the targets
+  // Feature points in the last adjustment with the targets (its tie points,
+  // ReconstructorOptions::tie_points_per_keyframe), and its time with the
+  // others' refinement on the poses it adjusted.
+  int points_adjusted = 0;
   double points_adjustment_s = 0;
   // How far the last adjustment with the points moved the cameras at them
   // (median, px), and how many times the points were triangulated again
