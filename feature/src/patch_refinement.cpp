@@ -126,9 +126,10 @@ struct PatchBuffers {
 
   // J^T J, formed in its lower half and mirrored.
   Matrix8d NormalMatrix() const {
-    Matrix8d normal = Matrix8d::Zero();
-    normal.selfadjointView<Eigen::Lower>().rankUpdate(jacobian.transpose());
-    normal.triangularView<Eigen::StrictlyUpper>() = normal.transpose();
+    Matrix8d normal;
+    for (int a = 0; a < 8; ++a) {
+      for (int b = 0; b <= a; ++b) normal(a, b) = normal(b, a) = jacobian.col(a).dot(jacobian.col(b));
+    }
     return normal;
   }
 
