@@ -26,7 +26,10 @@ std::optional<EncodedSize> PngSize(const std::uint8_t* data, size_t size) {
 // below 2), and bytes up to the next FF are discarded. A stricter walk would
 // stop at a broken segment that libjpeg reads past, and miss the size.
 std::optional<EncodedSize> JpegSize(const std::uint8_t* data, size_t size) {
-  if (size < 4 || data[0] != 0xFF || data[1] != 0xD8) return std::nullopt;
+  // FF D8 FF, as OpenCV's JPEG decoder checks: a buffer it does not take
+  // as a JPEG goes to the next decoder whose signature matches (GDCM's
+  // DICOM reader aborted on one the fuzzer made).
+  if (size < 4 || data[0] != 0xFF || data[1] != 0xD8 || data[2] != 0xFF) return std::nullopt;
   size_t at = 2;
   for (;;) {
     // The next marker: an FF (after any other bytes), its fill bytes, a code; FF 00 is none.
@@ -55,7 +58,9 @@ std::optional<EncodedSize> JpegSize(const std::uint8_t* data, size_t size) {
 // PGM/PPM (P2, P3, P5, P6): the magic, then width and height as decimal
 // text, separated by white space and # comments.
 std::optional<EncodedSize> PnmSize(const std::uint8_t* data, size_t size) {
-  if (size < 3 || data[0] != 'P' || !(data[1] == '2' || data[1] == '3' || data[1] == '5' || data[1] == '6')) {
+  // The magic and a white space, as OpenCV's PxM decoder checks.
+  if (size < 3 || data[0] != 'P' || !(data[1] == '2' || data[1] == '3' || data[1] == '5' || data[1] == '6') ||
+      !(data[2] == ' ' || data[2] == '\t' || data[2] == '\r' || data[2] == '\n')) {
     return std::nullopt;
   }
   long long values[2] = {0, 0};

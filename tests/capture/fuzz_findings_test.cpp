@@ -94,6 +94,38 @@ TEST(FuzzFindings, AnImageWhoseHeaderClaimsAGigapixelIsRefusedBeforeDecoding) {
       << sides_frame.error().message;
 }
 
+TEST(FuzzFindings, AJpegLookalikeWithADicomSignatureIsRefusedNotDecoded) {
+  // image_decode_fuzz (2026-12-05): FF D8 00 (not a JPEG to OpenCV, which
+  // wants FF D8 FF) with "DICM" at byte 128. The header walk took it for a
+  // JPEG, imdecode gave it to GDCM's DICOM reader, whose assert aborted the
+  // process. The magic bytes are now the ones OpenCV's own PNG, JPEG and
+  // PxM decoders check, so what passes them reaches those decoders only.
+  static const unsigned char kInput[] = {
+      0xff, 0xd8, 0x00, 0x00, 0x04, 0x05, 0x06, 0x87, 0x08, 0xac, 0x09, 0x0a, 0x0b, 0xff, 0xc4, 0x00,
+      0x11, 0x00, 0x02, 0xb5, 0x01, 0xf3, 0xf4, 0xf5, 0xf6, 0x00, 0x43, 0x01, 0x07, 0x07, 0x07, 0x0a,
+      0x08, 0x0a, 0x13, 0x0a, 0x0a, 0x13, 0x28, 0x1a, 0x16, 0x1a, 0x28, 0x28, 0x28, 0x28, 0x28, 0x28,
+      0x28, 0x28, 0x3d, 0x28, 0x28, 0x28, 0x30, 0x28, 0x28, 0x28, 0x28, 0x2d, 0x28, 0x28, 0x28, 0x28,
+      0x28, 0x28, 0x28, 0x28, 0x28, 0x28, 0x28, 0x28, 0x28, 0x28, 0x28, 0x28, 0x28, 0x28, 0x28, 0x28,
+      0x28, 0x28, 0x28, 0x28, 0x28, 0x28, 0x28, 0x28, 0x28, 0x28, 0x28, 0x60, 0x6f, 0xee, 0xbb, 0xa7,
+      0xfc, 0x7f, 0x00, 0x00, 0x28, 0xff, 0xc0, 0x00, 0x11, 0x08, 0x00, 0x12, 0x00, 0x18, 0x03, 0x01,
+      0x22, 0x01, 0x0a, 0x11, 0x01, 0x03, 0x11, 0x01, 0xd5, 0xe6, 0x3a, 0x2f, 0x2f, 0xe7, 0xe8, 0xff,
+      0x44, 0x49, 0x43, 0x4d, 0x11,
+  };
+  TempDir tmp;
+  WriteFile(tmp.path() / "frame.jpg", std::string(reinterpret_cast<const char*>(kInput), sizeof kInput));
+  auto frame = LoadImageFrame(tmp.path() / "frame.jpg", 3, 0);
+  ASSERT_FALSE(frame.has_value());
+  EXPECT_NE(frame.error().message.find("frame.jpg (frame 3)"), std::string::npos) << frame.error().message;
+  EXPECT_NE(frame.error().message.find("not a PNG, JPEG or PGM/PPM"), std::string::npos) << frame.error().message;
+  // A portable anymap's magic is followed by white space, as OpenCV checks.
+  WriteFile(tmp.path() / "frame.pgm", "P51 1 255\n" + std::string(1, '\0'));
+  EXPECT_FALSE(LoadImageFrame(tmp.path() / "frame.pgm", 0, 0).has_value());
+  WriteFile(tmp.path() / "frame.pgm", "P5 1 1 255\n" + std::string(1, '\x80'));
+  auto pgm = LoadImageFrame(tmp.path() / "frame.pgm", 0, 0);
+  ASSERT_TRUE(pgm.has_value()) << pgm.error().message;
+  EXPECT_EQ(pgm->gray.at<std::uint8_t>(0, 0), 0x80);
+}
+
 TEST(ImageHeader, TheSizeReadFromTheHeaderIsTheDecodedSizeOnEveryRealPhoto) {
   // The header walk must never refuse a real file: every PNG and JPEG of
   // ../shared/data (phone photos with EXIF, Middlebury, AprilTag test sets,
