@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <numeric>
 
 #include "tagsfm/feature/held_pose_refinement.h"
 #include "tagsfm/recon/scale_bars.h"
@@ -842,7 +843,7 @@ namespace {
 // Indices into `points`, ascending; all of them for per_keyframe 0.
 std::vector<size_t> TiePoints(const std::vector<FeaturePoint>& points, int per_keyframe, const CameraModel& camera) {
   std::vector<size_t> order(points.size());
-  for (size_t i = 0; i < order.size(); ++i) order[i] = i;
+  std::iota(order.begin(), order.end(), size_t{0});
   if (per_keyframe <= 0) return order;
   std::stable_sort(order.begin(), order.end(), [&](size_t a, size_t b) {
     const size_t va = points[a].observations.size(), vb = points[b].observations.size();
@@ -950,10 +951,10 @@ void Reconstructor::AdjustWithPoints(const std::vector<FrameState*>& registered,
   result->points_adjusted = static_cast<int>(adjusted.size());
   result->points_adjustment_s = summary.solve_s;
   const PoseMap poses = PosesOf(registered);
-  std::vector<FeaturePoint> moved = *points;
+  // The tie points where the adjustment put them, the others refined on its poses.
   std::vector<bool> in_adjustment(points->size(), false);
   for (size_t k = 0; k < tie.size(); ++k) {
-    moved[tie[k]].position = adjusted[k].position;
+    (*points)[tie[k]].position = adjusted[k].position;
     in_adjustment[tie[k]] = true;
   }
   std::vector<size_t> rest;
@@ -964,12 +965,11 @@ void Reconstructor::AdjustWithPoints(const std::vector<FrameState*>& registered,
   held.huber_px = terms.huber_px;
   held.threads = options_.points_threads;
   const auto t0 = std::chrono::steady_clock::now();
-  RefinePointsOnHeldPoses(poses, camera_, held, rest, &moved);
+  RefinePointsOnHeldPoses(poses, camera_, held, rest, points);
   result->points_adjustment_s += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   // Kept where the adjusted point still reprojects like a point of its kind.
   std::vector<FeaturePoint> kept;
-  for (size_t i = 0; i < points->size(); ++i) {
-    FeaturePoint p = moved[i];
+  for (FeaturePoint& p : *points) {
     double sum = 0;
     bool in_front = true;
     for (const auto& [frame, pixel] : p.observations) {
@@ -977,8 +977,9 @@ void Reconstructor::AdjustWithPoints(const std::vector<FrameState*>& registered,
       in_front = in_front && in_cam.z() > 0;
       sum += (camera_.Project(in_cam) - pixel).squaredNorm();
     }
+    const double triangulated_rms_px = p.reprojection_rms_px;
     p.reprojection_rms_px = std::sqrt(sum / static_cast<double>(p.observations.size()));
-    if (in_front && p.reprojection_rms_px <= std::max(2.0 * (*points)[i].reprojection_rms_px, 1.0)) kept.push_back(p);
+    if (in_front && p.reprojection_rms_px <= std::max(2.0 * triangulated_rms_px, 1.0)) kept.push_back(std::move(p));
   }
   *points = std::move(kept);
 }
