@@ -81,6 +81,10 @@ struct FeatureStage::State {
   // worker (the other core is capture's and the tags'), match_threads else.
   void Process(const Keyframe& keyframe, const cv::Mat& gray, const cv::Mat& colour, FeatureMap* into, int threads);
   void Add(const Keyframe& keyframe, KeyframeFeatures features, FeatureMap* into, int threads);
+  // Adds features extracted in extraction_ms (or warns of their error) and
+  // counts the keyframe's time.
+  void AddExtracted(const Keyframe& keyframe, Result<KeyframeFeatures> features, double extraction_ms, FeatureMap* into,
+                    int threads);
   void UpdateCloud();
   void Warn(FrameId frame, const std::string& what);
   void StopWorker();
@@ -101,14 +105,20 @@ void FeatureStage::State::Process(const Keyframe& keyframe, const cv::Mat& gray,
                                   int threads) {
   const auto t0 = Clock::now();
   auto features = ExtractFeatures(gray, colour, keyframe.tags, extractor);
+  AddExtracted(keyframe, std::move(features), SecondsSince(t0) * 1000.0, into, threads);
+}
+
+void FeatureStage::State::AddExtracted(const Keyframe& keyframe, Result<KeyframeFeatures> features, double extraction_ms,
+                                       FeatureMap* into, int threads) {
   if (!features) {
     Warn(keyframe.frame, features.error().message);
     return;
   }
+  const auto t0 = Clock::now();
   Add(keyframe, std::move(*features), into, threads);
   {
     std::lock_guard<std::mutex> lock(mutex);
-    keyframe_ms.push_back(SecondsSince(t0) * 1000.0);
+    keyframe_ms.push_back(extraction_ms + SecondsSince(t0) * 1000.0);
   }
   if (into == map.get()) UpdateCloud();
 }
@@ -116,18 +126,7 @@ void FeatureStage::State::Process(const Keyframe& keyframe, const cv::Mat& gray,
 void FeatureStage::State::AddPending() {
   if (!pending) return;
   std::unique_ptr<Pending> done = std::move(pending);
-  Result<KeyframeFeatures> features = done->features.get();
-  if (!features) {
-    Warn(done->keyframe.frame, features.error().message);
-    return;
-  }
-  const auto t0 = Clock::now();
-  Add(done->keyframe, std::move(*features), map.get(), options.match_threads);
-  {
-    std::lock_guard<std::mutex> lock(mutex);
-    keyframe_ms.push_back(done->extraction_ms + SecondsSince(t0) * 1000.0);
-  }
-  UpdateCloud();
+  AddExtracted(done->keyframe, done->features.get(), done->extraction_ms, map.get(), options.match_threads);
 }
 
 // The live cloud: every track triangulated with the keyframes' poses as
