@@ -126,7 +126,10 @@ void FeatureStage::State::AddExtracted(const Keyframe& keyframe, Result<Keyframe
 void FeatureStage::State::AddPending() {
   if (!pending) return;
   std::unique_ptr<Pending> done = std::move(pending);
-  AddExtracted(done->keyframe, done->features.get(), done->extraction_ms, map.get(), options.match_threads);
+  // get() first: it waits for the thread, which writes extraction_ms. As two
+  // arguments of one call their order is unspecified (ThreadSanitizer found it).
+  Result<KeyframeFeatures> features = done->features.get();
+  AddExtracted(done->keyframe, std::move(features), done->extraction_ms, map.get(), options.match_threads);
 }
 
 // The live cloud: every track triangulated with the keyframes' poses as
