@@ -235,6 +235,10 @@ void FeatureStage::AddKeyframe(const Frame* frame, const DetectionSet& tags, con
   s.keyframes.push_back(keyframe);
   if (!frame) return;  // Complete reads it again
   if (!s.worker.joinable()) {
+    // One extraction at a time: each holds SIFT's scale space (~220 MB for
+    // 1280x720). The previous keyframe's is waited for; this one's then
+    // runs while the previous one is matched.
+    if (s.pending) s.pending->features.wait();
     // Copies: the caller may reuse its buffers while the thread reads them.
     auto next = std::make_unique<State::Pending>();
     next->keyframe = keyframe;
