@@ -68,10 +68,13 @@ struct FeatureStage::State {
   // frames are read and detected (SIFT's serial parts left a core idle).
   // It joins the map, in order, when the next keyframe comes or the map is
   // read (AddPending).
+  struct Extracted {
+    Result<KeyframeFeatures> features;
+    double ms = 0;  // the extraction's time
+  };
   struct Pending {
     Keyframe keyframe;
-    std::future<Result<KeyframeFeatures>> features;
-    double extraction_ms = 0;  // written by the extracting thread, read after get()
+    std::future<Extracted> extracted;  // the time comes with the features: nothing shared
   };
   std::unique_ptr<Pending> pending;
   void AddPending();
@@ -126,10 +129,8 @@ void FeatureStage::State::AddExtracted(const Keyframe& keyframe, Result<Keyframe
 void FeatureStage::State::AddPending() {
   if (!pending) return;
   std::unique_ptr<Pending> done = std::move(pending);
-  // get() first: it waits for the thread, which writes extraction_ms. As two
-  // arguments of one call their order is unspecified (ThreadSanitizer found it).
-  Result<KeyframeFeatures> features = done->features.get();
-  AddExtracted(done->keyframe, std::move(features), done->extraction_ms, map.get(), options.match_threads);
+  Extracted extracted = done->extracted.get();
+  AddExtracted(done->keyframe, std::move(extracted.features), extracted.ms, map.get(), options.match_threads);
 }
 
 // The live cloud: every track triangulated with the keyframes' poses as
@@ -219,7 +220,7 @@ FeatureStage::FeatureStage(std::unique_ptr<State> state) : state_(std::move(stat
 
 FeatureStage::~FeatureStage() {
   state_->StopWorker();
-  if (state_->pending) state_->pending->features.wait();  // its thread reads the state
+  if (state_->pending) state_->pending->extracted.wait();  // its thread reads the state
 }
 
 bool FeatureStage::SelectKeyframe(const FrameReport& report) const { return report.registered && report.keyframe; }
@@ -238,16 +239,15 @@ void FeatureStage::AddKeyframe(const Frame* frame, const DetectionSet& tags, con
     // One extraction at a time: each holds SIFT's scale space (~220 MB for
     // 1280x720). The previous keyframe's is waited for; this one's then
     // runs while the previous one is matched.
-    if (s.pending) s.pending->features.wait();
+    if (s.pending) s.pending->extracted.wait();
     // Copies: the caller may reuse its buffers while the thread reads them.
     auto next = std::make_unique<State::Pending>();
     next->keyframe = keyframe;
-    next->features = std::async(std::launch::async, [&s, p = next.get(), gray = frame->gray.clone(),
-                                                     colour = frame->image.clone()] {
+    next->extracted = std::async(std::launch::async, [&s, tags = keyframe.tags, gray = frame->gray.clone(),
+                                                      colour = frame->image.clone()] {
       const auto t0 = Clock::now();
-      Result<KeyframeFeatures> features = ExtractFeatures(gray, colour, p->keyframe.tags, s.extractor);
-      p->extraction_ms = SecondsSince(t0) * 1000.0;
-      return features;
+      Result<KeyframeFeatures> features = ExtractFeatures(gray, colour, tags, s.extractor);
+      return State::Extracted{std::move(features), SecondsSince(t0) * 1000.0};
     });
     s.AddPending();
     s.pending = std::move(next);
