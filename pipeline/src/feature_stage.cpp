@@ -74,7 +74,7 @@ struct FeatureStage::State {
   };
   struct Pending {
     Keyframe keyframe;
-    std::future<Extracted> extracted;  // the time comes with the features: nothing shared
+    std::future<Extracted> extracted;  // features and time come back here: the thread writes nothing else the main thread reads
   };
   std::unique_ptr<Pending> pending;
   void AddPending();
