@@ -25,9 +25,9 @@ int TargetCoverage::SectorsCovered() const {
   return covered;
 }
 
-std::vector<TagView> ComputeTagViews(const CameraModel& camera, const TargetConfig& targets,
+std::vector<TagSighting> ComputeTagViews(const CameraModel& camera, const TargetConfig& targets,
                                      const DetectionSet& detections) {
-  std::vector<TagView> views;
+  std::vector<TagSighting> views;
   views.reserve(detections.tags.size());
   std::vector<Eigen::Vector2d> pixels;
   for (const auto& tag : detections.tags) pixels.insert(pixels.end(), tag.corners.begin(), tag.corners.end());
@@ -41,7 +41,7 @@ std::vector<TagView> ComputeTagViews(const CameraModel& camera, const TargetConf
     if (candidates.empty()) continue;
     const Rigid3d tag_from_cam = candidates.front().Inverse();
     const Eigen::Vector3d camera_in_tag = tag_from_cam.translation;
-    TagView view;
+    TagSighting view;
     view.id = tag.id;
     view.distance_m = camera_in_tag.norm();
     if (!(view.distance_m > 0)) continue;
@@ -55,8 +55,8 @@ std::vector<TagView> ComputeTagViews(const CameraModel& camera, const TargetConf
   return views;
 }
 
-void CoverageTracker::Add(FrameId frame, const std::vector<TagView>& views) {
-  for (const TagView& view : views) {
+void CoverageTracker::Add(FrameId frame, const std::vector<TagSighting>& views) {
+  for (const TagSighting& view : views) {
     TargetCoverage& c = targets_[view.id];
     c.id = view.id;
     ++c.times_seen;

@@ -77,7 +77,7 @@ const LiveStatus& LiveFeedback::Update(const DetectionSet& detections, const Fra
       status_.image_noise_px = std::max(options_.min_image_noise_px, sorted[sorted.size() / 2]);
     }
   }
-  const std::vector<TagView> views = ComputeTagViews(camera_, targets_, detections);
+  const std::vector<TagSighting> views = ComputeTagViews(camera_, targets_, detections);
   coverage_.Add(detections.frame, views);
   map_.Add(report, views);
   status_.map = map_.map();
@@ -89,7 +89,7 @@ const LiveStatus& LiveFeedback::Update(const DetectionSet& detections, const Fra
   return status_;
 }
 
-void LiveFeedback::Predict(const std::vector<TagView>& views, const DetectionSet& detections) {
+void LiveFeedback::Predict(const std::vector<TagSighting>& views, const DetectionSet& detections) {
   status_.predicted_point_error_m.reset();
   status_.predicted_position_error_m.reset();
   status_.predicted_rotation_error_deg.reset();

@@ -2,7 +2,7 @@
 
 namespace tagsfm {
 
-void LiveMapTracker::Add(const FrameReport& report, const std::vector<TagView>& views) {
+void LiveMapTracker::Add(const FrameReport& report, const std::vector<TagSighting>& views) {
   if (!report.registered) {
     map_.camera_in_world.reset();
     map_.camera_axis_in_world.reset();
@@ -12,7 +12,7 @@ void LiveMapTracker::Add(const FrameReport& report, const std::vector<TagView>& 
   const Eigen::Vector3d centre = world_from_cam.translation;
   map_.camera_in_world = centre;
   map_.camera_axis_in_world = world_from_cam.rotation * Eigen::Vector3d::UnitZ();
-  for (const TagView& view : views) {
+  for (const TagSighting& view : views) {
     // Eigen leaves a default-constructed vector uninitialised: start at zero.
     auto [it, added] = sums_.try_emplace(view.id, Eigen::Vector3d::Zero(), 0);
     it->second.first += world_from_cam * view.centre_in_cam;

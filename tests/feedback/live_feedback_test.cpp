@@ -54,14 +54,14 @@ TEST(Coverage, TagViewsGiveDistanceAndTiltOfEachTag) {
 
 TEST(Coverage, TracksTimesSeenSpreadAndSectors) {
   CoverageTracker tracker;
-  TagView head_on{7, 2.0, 0.0, Eigen::Vector3d(0, 0, 1)};
+  TagSighting head_on{7, 2.0, 0.0, Eigen::Vector3d(0, 0, 1)};
   tracker.Add(0, {head_on});
   EXPECT_EQ(tracker.targets().at(7).times_seen, 1);
   EXPECT_DOUBLE_EQ(tracker.targets().at(7).direction_spread_deg, 0.0);
   EXPECT_EQ(tracker.targets().at(7).SectorsCovered(), 0);  // head-on has no azimuth
   const double a = 30 * M_PI / 180;
-  tracker.Add(1, {TagView{7, 2.0, 30.0, Eigen::Vector3d(std::sin(a), 0, std::cos(a))}});
-  tracker.Add(2, {TagView{7, 2.0, 30.0, Eigen::Vector3d(-std::sin(a), 0, std::cos(a))}});
+  tracker.Add(1, {TagSighting{7, 2.0, 30.0, Eigen::Vector3d(std::sin(a), 0, std::cos(a))}});
+  tracker.Add(2, {TagSighting{7, 2.0, 30.0, Eigen::Vector3d(-std::sin(a), 0, std::cos(a))}});
   const TargetCoverage& c = tracker.targets().at(7);
   EXPECT_EQ(c.times_seen, 3);
   EXPECT_EQ(c.last_seen, 2);

@@ -36,7 +36,7 @@ struct TargetCoverage {
 };
 
 // The geometry of one tag in one frame, from its own four corners.
-struct TagView {
+struct TagSighting {
   TagId id = -1;
   double distance_m = 0;          // camera centre to tag centre
   double tilt_deg = 0;
@@ -46,12 +46,12 @@ struct TagView {
 
 // Per-tag geometry of a frame's detections (IPPE on each tag's corners);
 // tags whose pose cannot be found are left out.
-std::vector<TagView> ComputeTagViews(const CameraModel& camera, const TargetConfig& targets,
+std::vector<TagSighting> ComputeTagViews(const CameraModel& camera, const TargetConfig& targets,
                                      const DetectionSet& detections);
 
 class CoverageTracker {
  public:
-  void Add(FrameId frame, const std::vector<TagView>& views);
+  void Add(FrameId frame, const std::vector<TagSighting>& views);
   const std::map<TagId, TargetCoverage>& targets() const { return targets_; }
 
  private:

@@ -72,7 +72,7 @@ class LiveFeedback {
   const LiveStatus& status() const { return status_; }
 
  private:
-  void Predict(const std::vector<TagView>& views, const DetectionSet& detections);
+  void Predict(const std::vector<TagSighting>& views, const DetectionSet& detections);
   void Warn();
 
   CameraModel camera_;

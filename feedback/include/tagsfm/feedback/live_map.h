@@ -34,7 +34,7 @@ struct LiveMap {
 class LiveMapTracker {
  public:
   // `views`: the frame's tags (ComputeTagViews), in the camera frame.
-  void Add(const FrameReport& report, const std::vector<TagView>& views);
+  void Add(const FrameReport& report, const std::vector<TagSighting>& views);
   const LiveMap& map() const { return map_; }
 
  private:
