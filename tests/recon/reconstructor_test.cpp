@@ -170,6 +170,11 @@ TEST(Reconstructor, BumpedTargetIsMappedAgain) {
   options.noise_px = 0.1;
   synth::SyntheticScene scene = synth::MakeSyntheticBoxScene(options);
   const int bump_frame = 20;
+  // The anchor fixes the world frame and is never mapped again; which tag it
+  // is comes from the first two frames, before the bump (an area comparison
+  // that gcc and clang builds decide differently on this scene).
+  const std::optional<TagId> anchor = RunScene(scene, BoxTargets(options), std::nullopt).anchor_tag;
+  ASSERT_TRUE(anchor.has_value());
   // The tag seen in the most frames both before and after the bump.
   std::map<TagId, std::pair<int, int>> seen;
   for (int i = 0; i < options.frames; ++i) {
@@ -180,6 +185,7 @@ TEST(Reconstructor, BumpedTargetIsMappedAgain) {
   TagId bumped = -1;
   int best = 0;
   for (const auto& [id, counts] : seen) {
+    if (id == *anchor) continue;
     if (std::min(counts.first, counts.second) > best) best = std::min(counts.first, counts.second), bumped = id;
   }
   ASSERT_GE(best, 10);
