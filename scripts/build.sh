@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Configures and builds tagsfm into BUILD_DIR (default: build/).
-# Extra arguments go to CMake's configure step, e.g. -DTAGSFM_SANITIZE=ON.
+# Extra arguments go to CMake's configure step, e.g. -DTAGSFM_SANITIZE=ON;
+# BUILD_TARGETS (space-separated) builds those targets instead of all.
 # ccache, when installed, caches the compiler's output across builds and
 # clones (a 2-core machine rebuilds the whole tree in tens of minutes).
 # Ninja, when installed, builds a new tree: it compiles a library's sources
@@ -15,4 +16,6 @@ generator=()
 if [ ! -f "$build_dir/CMakeCache.txt" ] && command -v ninja > /dev/null; then generator=(-G Ninja); fi
 cmake -S . -B "$build_dir" -DCMAKE_BUILD_TYPE="${BUILD_TYPE:-Release}" "${generator[@]}" "${launcher[@]}" "$@" > "$build_dir.configure.log" 2>&1 \
   || { cat "$build_dir.configure.log"; exit 1; }
-cmake --build "$build_dir" -j"$(nproc)"
+targets=()
+for t in ${BUILD_TARGETS:-}; do targets+=(--target "$t"); done
+cmake --build "$build_dir" -j"$(nproc)" "${targets[@]}"

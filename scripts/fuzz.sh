@@ -1,25 +1,23 @@
 #!/usr/bin/env bash
-# Builds the libFuzzer targets (fuzz/) with clang into build-fuzz/ and runs
-# each for SECONDS (default 25) from the seed corpus in fuzz/corpus/<target>/.
+# Runs each libFuzzer target (fuzz/) for SECONDS (default 25) from the seed
+# corpus in fuzz/corpus/<target>/. The targets are built in build-asan/ by
+# scripts/build_asan.sh, beside the sanitizer tests (after
+# `scripts/test.sh --sanitize` there is nothing left to build).
 #   bash scripts/fuzz.sh [SECONDS] [TARGET...]     e.g. bash scripts/fuzz.sh 600 ply
-# New inputs that add coverage go to build-fuzz/corpus/<target>/ (not the
-# repository); a crash is written to build-fuzz/artifacts/<target>/ and
+# New inputs that add coverage go to build-asan/fuzz/corpus/<target>/ (not the
+# repository); a crash is written to build-asan/fuzz/artifacts/<target>/ and
 # makes the script fail. One line per target: executions, and the outcome.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 seconds="${1:-25}"
 shift || true
 bash scripts/setup.sh
-build=build-fuzz
-launcher=()
-command -v ccache > /dev/null && launcher=(-DCMAKE_CXX_COMPILER_LAUNCHER=ccache)
-cmake -S fuzz -B "$build" -DCMAKE_BUILD_TYPE= -DCMAKE_C_COMPILER=clang -DCMAKE_CXX_COMPILER=clang++ \
-  "${launcher[@]}" > "$build.configure.log" 2>&1 || { cat "$build.configure.log"; exit 1; }
 targets=("$@")
 if [ ${#targets[@]} -eq 0 ]; then
   targets=($(ls fuzz/corpus))
 fi
-cmake --build "$build" -j"$(nproc)" --target "${targets[@]/%/_fuzz}"
+bash scripts/build_asan.sh "${targets[@]/%/_fuzz}"
+build=build-asan/fuzz
 
 failed=0
 for t in "${targets[@]}"; do
