@@ -21,7 +21,7 @@ if [ "${1:-}" = "--sanitize" ]; then
 elif [ "${1:-}" = "--tsan" ]; then
   # A race reported anywhere (the tests, or the tagsfm they start) fails the run.
   export TSAN_OPTIONS="halt_on_error=1:second_deadlock_stack=1:suppressions=$PWD/scripts/tsan.supp"
-  # -g1 as for ASan: full debug info of the Eigen and Ceres templates made
+  # -g1, line tables only as for ASan: full debug info of the Eigen and Ceres templates made
   # this build take over 30 min on two cores. Only tagsfm and the one binary
   # of the threaded tests are built (TAGSFM_THREAD_TESTS_ONLY).
   BUILD_DIR=build-tsan BUILD_TYPE=RelWithDebInfo BUILD_TARGETS="tagsfm tagsfm_thread_tests" bash scripts/build.sh \

@@ -97,9 +97,10 @@ TEST(SfmMapper, SyntheticCorrespondencesGiveTheTruePosesAndPoints) {
     };
     std::vector<Eigen::Vector3d> est_points, true_points;
     for (const SfmPoint& point : model.points) {
-      if (point.deleted || TruthIndex(point) < 0) continue;
+      const int truth_index = point.deleted ? -1 : TruthIndex(point);
+      if (truth_index < 0) continue;
       est_points.push_back(point.xyz);
-      true_points.push_back(s.points[TruthIndex(point)]);
+      true_points.push_back(s.points[truth_index]);
     }
     auto sim = eval::EstimateSim3d(est_points, true_points, true);
     ASSERT_TRUE(sim.has_value());
