@@ -222,7 +222,7 @@ bool ExpectedInView(const QuadCorners& corners, const cv::Size& image) {
 // displacements: an affine flow field d(x) = M x + t with three tags or more
 // (pan, roll and zoom all show in it), a translation with fewer. A border
 // gets a band where d points into the image by entry_min_inflow_px somewhere
-// along it.
+// along it; every border does while no tag has been seen twice.
 void TagTracker::AddEntryBands(const cv::Size& image, std::vector<Search>* searches) const {
   std::vector<Eigen::Vector2d> points, flows;
   std::set<TagId> moving_tags;
@@ -239,11 +239,14 @@ void TagTracker::AddEntryBands(const cv::Size& image, std::vector<Search>* searc
       flows.push_back((track.corners[k] - (*track.previous)[k]) / dt);
     }
   }
-  if (points.empty() || largest <= 0.0) return;
+  if (largest <= 0.0) return;
+  // No tag seen twice yet (the first frame after the first full-frame
+  // pass): the motion is unknown, so every border gets a band.
+  const bool motion_known = !points.empty();
   Eigen::Matrix2d m = Eigen::Matrix2d::Zero();
   Eigen::Vector2d t = Eigen::Vector2d::Zero();
   for (const Eigen::Vector2d& f : flows) t += f;
-  t /= static_cast<double>(flows.size());
+  if (motion_known) t /= static_cast<double>(flows.size());
   if (moving_tags.size() >= 3) {
     // Least squares for [M t] on centred coordinates (well conditioned).
     Eigen::Vector2d mean = Eigen::Vector2d::Zero();
@@ -278,7 +281,8 @@ void TagTracker::AddEntryBands(const cv::Size& image, std::vector<Search>* searc
       const Eigen::Vector2d p = border.a + (border.b - border.a) * (i / 8.0);
       inflow = std::max(inflow, flow_at(p.x(), p.y()).dot(border.inward));
     }
-    if (!(inflow >= options_.entry_min_inflow_px)) continue;
+    if (!motion_known) inflow = 0.0;
+    if (motion_known && !(inflow >= options_.entry_min_inflow_px)) continue;
     const int width =
         static_cast<int>(std::ceil(options_.entry_band_tag_sizes * largest + inflow + options_.entry_band_margin_px));
     cv::Rect band;

@@ -84,6 +84,7 @@ struct TagTrackerOptions {
   // A border gets a band where the content flows in by at least this much
   // per frame somewhere along it; slower borders (and a still camera) are
   // left to the full-frame passes, which a tag takes many frames to escape.
+  // While no tag has been seen twice (the motion unknown), every border is searched.
   double entry_min_inflow_px = 0.5;
   // Full-frame passes and entry bands at region_quad_decimate while fewer
   // tags than this are found at the detector's decimation and some of them
