@@ -102,8 +102,9 @@ class AprilTagDetector final : public TagDetector {
       }
       result.tags.push_back(tag);
     }
-    RefineDetections(gray8, &result.tags);
+    RefineAll(gray8, &result.tags);
     if (options_.small_tag_pass) SmallTagPass(gray8, &result.tags);
+    DropTagsCutByTheBorder(gray8.size(), &result.tags);
     std::sort(result.tags.begin(), result.tags.end(),
               [](const TagDetection& a, const TagDetection& b) { return a.id < b.id; });
     return result;
@@ -126,10 +127,25 @@ class AprilTagDetector final : public TagDetector {
   // Tags are refined independently, on the detector's threads (a pool
   // started once: a tag's refinement is 0.1-1 ms, too short to start threads for).
   void RefineDetections(const cv::Mat& gray8, std::vector<TagDetection>* tags) override {
+    RefineAll(gray8, tags);
+    DropTagsCutByTheBorder(gray8.size(), tags);
+  }
+
+  void RefineAll(const cv::Mat& gray8, std::vector<TagDetection>* tags) {
     if (options_.refinement == CornerRefinement::kNone || options_.refinement == CornerRefinement::kAprilTag) return;
     if (tags->empty() || gray8.empty()) return;
     for (const TagDetection& tag : *tags) Layout(tag.id);  // fill the cache before threads read it
     workers_.Run(static_cast<int>(tags->size()), [&](int i, int) { (void)Refine(gray8, &(*tags)[i]); });
+  }
+
+  // Cut by the image border: their corners cannot be measured.
+  void DropTagsCutByTheBorder(const cv::Size& image, std::vector<TagDetection>* tags) const {
+    if (!options_.drop_tags_cut_by_border) return;
+    tags->erase(std::remove_if(tags->begin(), tags->end(),
+                               [&](const TagDetection& t) {
+                                 return !ClearOfImageBorder(t.corners, image.width, image.height);
+                               }),
+                tags->end());
   }
 
   // A failed refinement keeps libapriltag's corners: a tag is never lost to

@@ -68,6 +68,7 @@ Result<std::unique_ptr<TagTracker>> TagTracker::Create(const TagDetectorOptions&
   part.refinement = CornerRefinement::kNone;
   part.threads = 1;  // parallel across regions, not inside one
   part.small_tag_pass = false;  // a full frame's pass (aruco over the whole image), not a region's
+  part.drop_tags_cut_by_border = false;  // a region's edges are not the image's
   std::vector<ThreadDetectors> per_thread;
   for (int t = 0; t < detector.threads; ++t) {
     TagDetectorOptions region_options = part;

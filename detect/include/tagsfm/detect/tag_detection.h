@@ -20,6 +20,13 @@ struct TagDetection {
   Eigen::Vector2d Center() const;
 };
 
+// Whether a tag's corners all lie at least 3 px inside the image's outer
+// pixel centres. A tag the border cuts is reported with a corner where it
+// cannot be measured (1.7-1.9 px off, reported from 0.4 px beyond to 1.3 px
+// inside the border; docs/detection.md), while the edge fit measures a
+// whole tag down to 0.4 px from it: 3 px leaves room.
+bool ClearOfImageBorder(const std::array<Eigen::Vector2d, 4>& corners, int width, int height);
+
 struct DetectionSet {
   FrameId frame = 0;
   std::vector<TagDetection> tags;

@@ -58,6 +58,10 @@ struct TagDetectorOptions {
   // RefineCornersByEdgeLines). Without: the edges are taken as straight in
   // the image.
   std::optional<CameraModel> camera;
+  // Drop tags cut by the image border (ClearOfImageBorder). Off for a
+  // detector run on parts of an image (the tracker's regions), whose edges
+  // are not the image's: the tracker's full detector drops them after.
+  bool drop_tags_cut_by_border = true;
 
   Status Check() const;  // names the wrong field
 };
@@ -79,7 +83,8 @@ class TagDetector {
 
   // Refines the corners of `tags` (found in `gray8`, e.g. by a detector with
   // refinement kNone on parts of it) with this detector's refinement, on its
-  // threads. A tag whose refinement fails keeps its corners.
+  // threads. A tag whose refinement fails keeps its corners. A tag cut by
+  // the image border (ClearOfImageBorder) is dropped, as Detect drops it.
   virtual void RefineDetections(const cv::Mat& gray8, std::vector<TagDetection>* tags) = 0;
 
   // Modules across the tag's outer (corner-defining) square, e.g. 8 for
