@@ -7,9 +7,13 @@ Eigen::Vector2d TagDetection::Center() const {
 }
 
 bool ClearOfImageBorder(const std::array<Eigen::Vector2d, 4>& corners, int width, int height) {
-  constexpr double kMargin = 3.0;
+  return WhollyInsideImage(corners, width, height, 3.0);
+}
+
+bool WhollyInsideImage(const std::array<Eigen::Vector2d, 4>& corners, int width, int height, double margin_px) {
   for (const Eigen::Vector2d& c : corners) {
-    if (!(c.x() >= kMargin && c.y() >= kMargin && c.x() <= width - 1 - kMargin && c.y() <= height - 1 - kMargin)) {
+    if (!(c.x() >= margin_px && c.y() >= margin_px && c.x() <= width - 1 - margin_px &&
+          c.y() <= height - 1 - margin_px)) {
       return false;
     }
   }

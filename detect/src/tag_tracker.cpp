@@ -200,21 +200,10 @@ std::vector<Region> MergeOverlapping(std::vector<Region> regions) {
 
 namespace {
 
-// Whether a quad lies wholly inside the image, `margin` px clear of its border.
-bool WhollyInside(const QuadCorners& corners, const cv::Size& image, double margin) {
-  for (const Eigen::Vector2d& c : corners) {
-    if (!(c.x() >= margin && c.y() >= margin && c.x() <= image.width - 1 - margin &&
-          c.y() <= image.height - 1 - margin)) {
-      return false;
-    }
-  }
-  return true;
-}
-
 // A tag predicted wholly in view, its white quiet zone (about an eighth of
 // its extent) included: one that is not found there is lost.
 bool ExpectedInView(const QuadCorners& corners, const cv::Size& image) {
-  return WhollyInside(corners, image, 1.0 + ExtentOf(corners) / 8.0);
+  return WhollyInsideImage(corners, image.width, image.height, 1.0 + ExtentOf(corners) / 8.0);
 }
 
 }  // namespace
@@ -282,7 +271,7 @@ void TagTracker::AddEntryBands(const cv::Size& image, std::vector<Search>* searc
       const Eigen::Vector2d p = border.a + (border.b - border.a) * (i / 8.0);
       inflow = std::max(inflow, flow_at(p.x(), p.y()).dot(border.inward));
     }
-    if (!motion_known) inflow = 0.0;
+    // Unknown motion: no flow (m and t zero), inflow 0, and a band all the same.
     if (motion_known && !(inflow >= options_.entry_min_inflow_px)) continue;
     const int width =
         static_cast<int>(std::ceil(options_.entry_band_tag_sizes * largest + inflow + options_.entry_band_margin_px));

@@ -26,6 +26,8 @@ struct TagDetection {
 // inside the border; docs/detection.md), while the edge fit measures a
 // whole tag down to 0.4 px from it: 3 px leaves room.
 bool ClearOfImageBorder(const std::array<Eigen::Vector2d, 4>& corners, int width, int height);
+// The same with any margin (px from the outer pixel centres).
+bool WhollyInsideImage(const std::array<Eigen::Vector2d, 4>& corners, int width, int height, double margin_px);
 
 struct DetectionSet {
   FrameId frame = 0;
