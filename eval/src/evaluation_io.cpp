@@ -90,6 +90,8 @@ json LengthsJson(const LengthErrors& l) {
   json out = {{"count", l.pairs.size()},
               {"abs_error_m", StatsJson(l.abs_error_m)},
               {"error_per_length_ppm", l.error_per_length_ppm},
+              {"weighted_error_per_length_ppm",
+               l.weighted_error_per_length_ppm ? json(*l.weighted_error_per_length_ppm) : json(nullptr)},
               {"pairs", pairs}};
   out["error_over_sigma"] = l.normalized_count > 0 ? json{{"count", l.normalized_count},
                                                            {"mean", l.normalized_mean},

@@ -18,6 +18,7 @@ LengthErrors CompareLengths(const TargetCornerMap& truth, const TargetCornerMap&
   LengthErrors out;
   std::vector<double> abs_errors, normalized;
   double sum_el = 0, sum_ll = 0;
+  double weighted_el = 0, weighted_ll = 0;
   for (const TagPairMeasurement& p : MeasureAllTagPairs(common, covariance, scale_sigma_rel)) {
     LengthError e;
     e.a = p.a;
@@ -30,10 +31,20 @@ LengthErrors CompareLengths(const TargetCornerMap& truth, const TargetCornerMap&
     if (e.sigma_m && *e.sigma_m > 0) normalized.push_back(e.error_m / *e.sigma_m);
     sum_el += e.error_m * e.true_length_m;
     sum_ll += e.true_length_m * e.true_length_m;
+    if (e.sigma_m) {
+      // The covariance's own variance: the scale term went in in quadrature.
+      const double scale_part = scale_sigma_rel * e.measured_length_m;
+      const double variance = *e.sigma_m * *e.sigma_m - scale_part * scale_part;
+      if (variance > 0) {
+        weighted_el += e.error_m * e.true_length_m / variance;
+        weighted_ll += e.true_length_m * e.true_length_m / variance;
+      }
+    }
     out.pairs.push_back(e);
   }
   out.abs_error_m = Stats::Of(abs_errors);
   out.error_per_length_ppm = sum_ll > 0 ? sum_el / sum_ll * 1e6 : 0.0;
+  if (weighted_ll > 0) out.weighted_error_per_length_ppm = weighted_el / weighted_ll * 1e6;
   out.normalized_count = static_cast<int>(normalized.size());
   if (!normalized.empty()) {
     double sum = 0, sum_sq = 0;

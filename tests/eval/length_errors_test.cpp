@@ -76,6 +76,34 @@ TEST(LengthErrors, ErrorOverSigmaIsStandardNormalWhenTheCovarianceIsRight) {
   EXPECT_LT(lengths.beyond_3_sigma, 0.03);
 }
 
+// A map 100 ppm too large whose tag 7 is 2 mm off, with the covariance
+// saying so (sigma 2 mm against 20 um for the others): the plain slope reads
+// tag 7's error as scale, the weighted one finds the 100 ppm.
+TEST(LengthErrors, WeightedSlopeCountsEachPairByItsSigma) {
+  const TargetCornerMap truth = BoxTargets();
+  TargetCornerMap estimate = Transformed(truth, 1.0001, Eigen::Quaterniond::Identity(), Eigen::Vector3d::Zero());
+  const Eigen::Vector3d away = (TagCenter(estimate.at(7)) - TagCenter(estimate.at(20))).normalized();
+  for (Eigen::Vector3d& c : estimate.at(7)) c += 0.002 * away;
+  TagCovariance covariance;
+  for (const auto& [id, corners] : truth) covariance.ids.push_back(id);
+  const int n = 6 * static_cast<int>(covariance.ids.size());
+  covariance.covariance = Eigen::MatrixXd::Zero(n, n);
+  for (int i = 0; i < n; i += 6) {
+    const double sigma = covariance.ids[static_cast<size_t>(i / 6)] == 7 ? 0.002 : 2e-5;
+    covariance.covariance.block<3, 3>(i + 3, i + 3) = sigma * sigma * Eigen::Matrix3d::Identity();
+  }
+  // A common scale term in every sigma (a print tolerance) changes nothing.
+  for (const double scale_sigma_rel : {0.0, 2e-4}) {
+    const LengthErrors lengths = CompareLengths(truth, estimate, covariance, scale_sigma_rel);
+    ASSERT_TRUE(lengths.weighted_error_per_length_ppm.has_value());
+    // Tag 7's 29 pairs of 435 carry up to 2 mm over ~1 m: tens of ppm on
+    // the plain slope; on the weighted one 1/10,000 of their weight.
+    EXPECT_GT(std::abs(lengths.error_per_length_ppm - 100.0), 20.0);
+    EXPECT_NEAR(*lengths.weighted_error_per_length_ppm, 100.0, 1.0) << scale_sigma_rel;
+  }
+  EXPECT_FALSE(CompareLengths(truth, estimate, std::nullopt).weighted_error_per_length_ppm.has_value());
+}
+
 TEST(MapPrecision, RatioAndScaleOfAKnownSimilarity) {
   EvaluationInput in;
   const TargetCornerMap truth = BoxTargets();

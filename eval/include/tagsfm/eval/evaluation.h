@@ -94,6 +94,13 @@ struct LengthErrors {
   double normalized_mean = 0, normalized_std = 0;
   double beyond_3_sigma = 0;       // share of those pairs, 0-1
   double error_per_length_ppm = 0; // least-squares slope of E against L (a scale error shows here)
+  // The same slope with each pair weighted by 1 / sigma^2 of its length from
+  // the covariance alone (the common scale term left out: it is the same
+  // for every pair): the map's scale as its precision sees it. One tag seen
+  // in a few poor views moves the plain slope, and a similarity fit over
+  // all corners, by its whole error; here it counts by its sigma. Absent
+  // without a covariance.
+  std::optional<double> weighted_error_per_length_ppm;
 };
 
 // The self-survey's precision: the estimated map against the true targets
