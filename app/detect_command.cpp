@@ -30,8 +30,15 @@ nlohmann::json TagsToJson(const DetectionSet& detections) {
   for (const TagDetection& tag : detections.tags) {
     nlohmann::json corners = nlohmann::json::array();
     for (const Eigen::Vector2d& c : tag.corners) corners.push_back({c.x(), c.y()});
+    // Each corner's covariance [xx, xy, yy] in px^2 from the edge fit, null
+    // where the refinement gave none.
+    nlohmann::json covariances = nlohmann::json::array();
+    for (const Eigen::Matrix2d& c : tag.corner_covariance) {
+      covariances.push_back(c.determinant() > 0 ? nlohmann::json{c(0, 0), c(0, 1), c(1, 1)} : nlohmann::json(nullptr));
+    }
     tags.push_back({{"id", tag.id},
                     {"corners", corners},
+                    {"corner_covariance_px2", covariances},
                     {"decision_margin", tag.decision_margin},
                     {"hamming", tag.hamming}});
   }

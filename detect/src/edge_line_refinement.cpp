@@ -418,6 +418,12 @@ class EdgeFit {
   // `moved_px`: how far the step moved the line's ends.
   bool Step(EdgeParams* params, double* moved_px);
 
+  // The covariance of the line's angle and offset (theta, rho) where the
+  // last accepted step started: the inverse normal matrix times the
+  // residuals' variance (sum r^2 over pixels minus parameters), so the
+  // image's noise and what the model misses both count. Zero before a step.
+  Eigen::Matrix2d LineCovariance() const;
+
  private:
   static bool Same(const EdgeLine& a, const EdgeLine& b) { return a.normal == b.normal && a.offset == b.offset; }
 
@@ -431,7 +437,20 @@ class EdgeFit {
   EdgeParams previous_;
   ParamVector last_step_ = ParamVector::Zero();
   double previous_cost_ = std::numeric_limits<double>::infinity();
+  Eigen::Matrix<double, kParams, kParams> accepted_normal_ = Eigen::Matrix<double, kParams, kParams>::Zero();
 };
+
+Eigen::Matrix2d EdgeFit::LineCovariance() const {
+  const double dof = static_cast<double>(band_.size()) - kParams;
+  if (!(dof > 0) || !std::isfinite(previous_cost_) || accepted_normal_.isZero()) return Eigen::Matrix2d::Zero();
+  const Eigen::LDLT<Eigen::Matrix<double, kParams, kParams>> ldlt(accepted_normal_);
+  if (ldlt.info() != Eigen::Success) return Eigen::Matrix2d::Zero();
+  Eigen::Matrix<double, kParams, 2> unit = Eigen::Matrix<double, kParams, 2>::Zero();
+  unit(0, 0) = unit(1, 1) = 1.0;  // theta, rho
+  const Eigen::Matrix<double, kParams, 2> columns = ldlt.solve(unit);
+  const Eigen::Matrix2d covariance = previous_cost_ / dof * columns.topRows<2>();
+  return covariance.allFinite() ? Eigen::Matrix2d(0.5 * (covariance + covariance.transpose())) : Eigen::Matrix2d::Zero();
+}
 
 bool EdgeFit::Step(EdgeParams* params, double* moved_px) {
   constexpr int P = kParams;
@@ -488,6 +507,7 @@ bool EdgeFit::Step(EdgeParams* params, double* moved_px) {
     if (!step.allFinite()) return false;
     previous_ = *params;
     previous_cost_ = cost;
+    accepted_normal_ = normal_matrix;
   }
   // A start off by up to a pixel needs no bigger steps than this.
   step(1) = std::clamp(step(1), -0.5, 0.5);
@@ -856,6 +876,32 @@ std::array<std::vector<bool>, EdgeModel::kRows> RowsBehindEdge(const TagLayout& 
   return rows;
 }
 
+// A fitted line's (theta, rho) covariance (EdgeFit::LineCovariance) and the
+// point its rho is measured from (its band's centroid).
+struct LineUncertainty {
+  Eigen::Matrix2d covariance = Eigen::Matrix2d::Zero();
+  Eigen::Vector2d origin = Eigen::Vector2d::Zero();
+};
+
+// The covariance of `corner`, where lines a and b meet: each line's
+// variance across itself there (its offset's, and its angle's times the
+// distance along it from its band's centroid) carried through the
+// intersection. The bands stay clear of the corners and share no pixels, so
+// the two lines' errors are independent.
+Eigen::Matrix2d CornerCovariance(const EdgeLine& a, const LineUncertainty& ua, const EdgeLine& b,
+                                 const LineUncertainty& ub, const Eigen::Vector2d& corner) {
+  auto across_variance = [&](const EdgeLine& line, const LineUncertainty& u) {
+    // n . (x - o) = rho, so n . dx = d rho - t d theta, t along the line.
+    const double t = Eigen::Vector2d(-line.normal.y(), line.normal.x()).dot(corner - u.origin);
+    return u.covariance(1, 1) - 2.0 * t * u.covariance(0, 1) + t * t * u.covariance(0, 0);
+  };
+  Eigen::Matrix2d normals;
+  normals << a.normal.transpose(), b.normal.transpose();
+  const Eigen::Matrix2d inverse = normals.inverse();
+  const Eigen::Vector2d variances(across_variance(a, ua), across_variance(b, ub));
+  return inverse * variances.asDiagonal() * inverse.transpose();
+}
+
 bool Intersect(const EdgeLine& a, const EdgeLine& b, Eigen::Vector2d* point) {
   Eigen::Matrix2d normals;
   normals << a.normal.transpose(), b.normal.transpose();
@@ -933,7 +979,8 @@ std::array<EdgeLine, 4> StartLines(const QuadCorners& corners) {
 // where the new lines meet. False when an edge cannot be fitted.
 bool FitEdgesOnce(const cv::Mat& gray8, int n, bool coarse, double end_margin_modules,
                   const LocalUndistortion* pixel_map, const std::array<EdgeModel, 4>& models, QuadCorners* corners,
-                  std::array<EdgeParams, 4>* params, std::array<EdgeLine, 4>* lines) {
+                  std::array<EdgeParams, 4>* params, std::array<EdgeLine, 4>* lines,
+                  std::array<LineUncertainty, 4>* uncertainty = nullptr) {
   const std::optional<Eigen::Matrix3d> image_from_square = HomographyFrom4(CornerSquareCorners(n), *corners);
   if (!image_from_square) return false;
   // The second pass starts at the first's minimum: a few steps suffice.
@@ -962,6 +1009,7 @@ bool FitEdgesOnce(const cv::Mat& gray8, int n, bool coarse, double end_margin_mo
     }
     line.normal = Eigen::Vector2d(std::cos(e.theta), std::sin(e.theta));
     line.offset = e.rho + line.normal.dot(origin);
+    if (uncertainty != nullptr) (*uncertainty)[i] = {fit.LineCovariance(), origin};
   }
   for (int i = 0; i < 4; ++i) {
     if (!Intersect((*lines)[(i + 3) % 4], (*lines)[i], &(*corners)[i])) return false;
@@ -972,7 +1020,7 @@ bool FitEdgesOnce(const cv::Mat& gray8, int n, bool coarse, double end_margin_mo
 }  // namespace
 
 bool RefineCornersByEdgeLines(const cv::Mat& gray8, const TagLayout& layout, QuadCorners* corners,
-                              const CameraModel* camera) {
+                              const CameraModel* camera, std::array<Eigen::Matrix2d, 4>* covariances) {
   const int n = layout.modules_across;
   if (gray8.empty() || gray8.type() != CV_8UC1 || n <= 0) return false;
   if (!layout.like_border.empty() && layout.like_border.size() != static_cast<size_t>(n * n)) return false;
@@ -1003,8 +1051,12 @@ bool RefineCornersByEdgeLines(const cv::Mat& gray8, const TagLayout& layout, Qua
   // vectors' allocations, ~2 % of the refinement).
   const std::array<EdgeModel, 4> models = {EdgeModel(RowsBehindEdge(layout, 0)), EdgeModel(RowsBehindEdge(layout, 1)),
                                            EdgeModel(RowsBehindEdge(layout, 2)), EdgeModel(RowsBehindEdge(layout, 3))};
+  std::array<LineUncertainty, 4> uncertainty;
   for (const bool coarse : {true, false}) {
-    if (!FitEdgesOnce(gray8, n, coarse, end_margin_modules, pixel_map, models, &current, &params, &lines)) return false;
+    if (!FitEdgesOnce(gray8, n, coarse, end_margin_modules, pixel_map, models, &current, &params, &lines,
+                      coarse ? nullptr : &uncertainty)) {
+      return false;
+    }
   }
   // A refinement that moves a corner by more than half a module has locked
   // onto something else; the start is then the better answer.
@@ -1013,6 +1065,23 @@ bool RefineCornersByEdgeLines(const cv::Mat& gray8, const TagLayout& layout, Qua
     if (!((current[i] - initial[i]).norm() <= max_move)) return false;
   }
   for (int i = 0; i < 4; ++i) (*corners)[i] = pixel_map != nullptr ? pixel_map->Distort(current[i]) : current[i];
+  if (covariances != nullptr) {
+    for (int i = 0; i < 4; ++i) {
+      const int before = (i + 3) % 4;
+      Eigen::Matrix2d c = CornerCovariance(lines[before], uncertainty[before], lines[i], uncertainty[i], current[i]);
+      if (pixel_map != nullptr) {
+        // Fitted in undistorted pixels: carried to the image's through the
+        // lens' local Jacobian (central differences over a tenth of a pixel).
+        Eigen::Matrix2d jacobian;
+        for (int k = 0; k < 2; ++k) {
+          const Eigen::Vector2d d = 0.05 * Eigen::Vector2d::Unit(k);
+          jacobian.col(k) = (pixel_map->Distort(current[i] + d) - pixel_map->Distort(current[i] - d)) / 0.1;
+        }
+        c = jacobian * c * jacobian.transpose();
+      }
+      (*covariances)[i] = c.allFinite() ? c : Eigen::Matrix2d::Zero();
+    }
+  }
   return true;
 }
 

@@ -151,6 +151,7 @@ class AprilTagDetector final : public TagDetector {
   // A failed refinement keeps libapriltag's corners: a tag is never lost to
   // it. False if it failed.
   bool Refine(const cv::Mat& gray8, TagDetection* tag) const {
+    tag->corner_covariance.fill(Eigen::Matrix2d::Zero());  // known only from an edge fit that succeeds
     switch (options_.refinement) {
       case CornerRefinement::kNone:
       case CornerRefinement::kAprilTag:
@@ -162,10 +163,11 @@ class AprilTagDetector final : public TagDetector {
         // the wide-lens test image whose libapriltag corners are 1.1 px
         // off), the fit without it still beats keeping libapriltag's
         // corners (there: 0.02 px from the truth instead of 1.13).
-        if (options_.camera && RefineCornersByEdgeLines(gray8, Layout(tag->id), &tag->corners, &*options_.camera)) {
+        if (options_.camera && RefineCornersByEdgeLines(gray8, Layout(tag->id), &tag->corners, &*options_.camera,
+                                                        &tag->corner_covariance)) {
           return true;
         }
-        return RefineCornersByEdgeLines(gray8, Layout(tag->id), &tag->corners);
+        return RefineCornersByEdgeLines(gray8, Layout(tag->id), &tag->corners, nullptr, &tag->corner_covariance);
     }
     return false;
   }

@@ -99,6 +99,15 @@ double MedianCornerError(const nlohmann::json& images, const std::filesystem::pa
       for (size_t k = 0; k < 4; ++k) {
         const Eigen::Vector2d c(tag["corners"][k][0].get<double>(), tag["corners"][k][1].get<double>());
         const double e = (c - camera.Project(cam_from_world * truth[k])).norm();
+        // The edge fit's covariance of every corner: positive definite, of
+        // hundredths of a pixel (tests/detect/corner_covariance_test.cpp).
+        const nlohmann::json& cov = tag["corner_covariance_px2"][k];
+        EXPECT_TRUE(cov.is_array() && cov.size() == 3) << tag.dump();
+        if (cov.is_array() && cov.size() == 3) {
+          const double xx = cov[0], xy = cov[1], yy = cov[2];
+          EXPECT_GT(xx * yy - xy * xy, 0.0) << tag.dump();
+          EXPECT_LT(std::sqrt(0.5 * (xx + yy)), 0.2) << tag.dump();
+        }
         if (e < 0.5) errors.push_back(e);
       }
     }

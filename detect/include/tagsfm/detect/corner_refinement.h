@@ -41,8 +41,15 @@ struct CameraModel;
 // distortion), the lines fitted and intersected there, and the corners
 // mapped back through the distortion. `corners` are image pixels either way.
 // Without distortion the camera changes nothing.
+//
+// `covariances` (optional): each corner's 2x2 covariance in image pixels,
+// from the two edges' fits (the inverse normal matrix times the residuals'
+// variance, through the lines' intersection and the lens): what the corner
+// is worth, larger on small, blurred, noisy or strongly tilted tags. Zero
+// where a fit gave no covariance.
 bool RefineCornersByEdgeLines(const cv::Mat& gray8, const TagLayout& layout, QuadCorners* corners,
-                              const CameraModel* camera = nullptr);
+                              const CameraModel* camera = nullptr,
+                              std::array<Eigen::Matrix2d, 4>* covariances = nullptr);
 
 // OpenCV cornerSubPix on each corner, with a window smaller than one module.
 bool RefineCornersBySubPix(const cv::Mat& gray8, int modules_across, QuadCorners* corners);

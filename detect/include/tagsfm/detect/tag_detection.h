@@ -14,6 +14,10 @@ struct TagDetection {
   // libapriltag's corner order, in OpenCV's pixel convention (pixel centres
   // at integer coordinates), distorted image coordinates.
   std::array<Eigen::Vector2d, 4> corners;
+  // Each corner's covariance in image pixels from the edge fit
+  // (RefineCornersByEdgeLines); zero when unknown (another refinement).
+  std::array<Eigen::Matrix2d, 4> corner_covariance = {Eigen::Matrix2d::Zero(), Eigen::Matrix2d::Zero(),
+                                                      Eigen::Matrix2d::Zero(), Eigen::Matrix2d::Zero()};
   double decision_margin = 0.0;
   int hamming = 0;
 
