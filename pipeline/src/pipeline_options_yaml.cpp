@@ -84,6 +84,9 @@ void ReadRecon(YamlFields f, ReconstructorOptions* o) {
   f.Read("points_threads", &o->points_threads);
   f.Read("refine_intrinsics", &o->refine_intrinsics);
   f.Read("tag_size_sigma_rel", &o->tag_size_sigma_rel);
+  f.Read("weight_corners", &o->weight_corners);
+  f.Read("corner_sigma_reference_px", &o->corner_sigma_reference_px);
+  f.Read("corner_sigma_floor_px", &o->corner_sigma_floor_px);
   f.Done();
 }
 

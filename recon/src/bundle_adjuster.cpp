@@ -54,12 +54,13 @@ int AddTagResiduals(ceres::Problem* problem, PoseParams* cam_from_world, const T
   ceres::LossFunction* tag_loss = SharedLoss(2 * huber_px);
   if (tag.known) {
     for (int k = 0; k < 4; ++k) {
-      problem->AddResidualBlock(FixedPointReprojectionError::Create(obs.normalized[k], tag.known_corners[k], fx, fy),
-                                loss, cam_from_world->data);
+      problem->AddResidualBlock(
+          FixedPointReprojectionError::Create(obs.normalized[k], tag.known_corners[k], fx, fy, obs.weight_undistorted[k]),
+          loss, cam_from_world->data);
     }
     return 4;
   }
-  problem->AddResidualBlock(TagReprojectionError::Create(obs.normalized, tag.size_m, fx, fy), tag_loss,
+  problem->AddResidualBlock(TagReprojectionError::Create(obs.normalized, tag.size_m, fx, fy, obs.weight_undistorted), tag_loss,
                             cam_from_world->data, world_from_tag->data);
   return 1;
 }
@@ -468,11 +469,13 @@ int AddTargetResiduals(ceres::Problem* problem, const std::vector<FrameState*>& 
       }
       if (tag.known) {
         for (int k = 0; k < 4; ++k) {
-          problem->AddResidualBlock(FixedPointPixelReprojectionError::Create(obs.pixels[k], tag.known_corners[k]),
-                                    SharedLoss(huber_px), frame->cam_from_world.data, intrinsics);
+          problem->AddResidualBlock(
+              FixedPointPixelReprojectionError::Create(obs.pixels[k], tag.known_corners[k], obs.weight_pixels[k]),
+              SharedLoss(huber_px), frame->cam_from_world.data, intrinsics);
         }
       } else {
-        problem->AddResidualBlock(TagPixelReprojectionError::Create(obs.pixels, tag.size_m), SharedLoss(2 * huber_px),
+        problem->AddResidualBlock(TagPixelReprojectionError::Create(obs.pixels, tag.size_m, obs.weight_pixels),
+                                  SharedLoss(2 * huber_px),
                                   frame->cam_from_world.data, tag.world_from_tag.data, intrinsics);
       }
       ++residuals;

@@ -7,6 +7,7 @@
 #include <numeric>
 
 #include "tagsfm/feature/held_pose_refinement.h"
+#include "tagsfm/recon/corner_weights.h"
 #include "tagsfm/recon/scale_bars.h"
 #include "tagsfm/recon/tag_geometry.h"
 #include "tagsfm/recon/tag_initializer.h"
@@ -31,6 +32,12 @@ Status ReconstructorOptions::Check() const {
   if (!(keyframe_min_rotation_deg >= 0)) return MakeError("recon.keyframe_min_rotation_deg must be >= 0");
   if (!(tag_size_sigma_rel >= 0) || tag_size_sigma_rel > 0.1) {
     return MakeError("recon.tag_size_sigma_rel must be in 0..0.1");
+  }
+  if (!(corner_sigma_reference_px > 0) || corner_sigma_reference_px > 10) {
+    return MakeError("recon.corner_sigma_reference_px must be in (0, 10]");
+  }
+  if (!(corner_sigma_floor_px >= 0) || corner_sigma_floor_px > 10) {
+    return MakeError("recon.corner_sigma_floor_px must be in [0, 10]");
   }
   return Status::Ok();
 }
@@ -89,6 +96,14 @@ FrameState& Reconstructor::MakeFrameState(const DetectionSet& detections) {
   const std::vector<Eigen::Vector2d> normalized = camera_.PixelsToNormalized(pixels);
   for (size_t i = 0; i < frame.tags.size(); ++i) {
     for (int k = 0; k < 4; ++k) frame.tags[i].normalized[k] = normalized[4 * i + k];
+  }
+  if (options_.weight_corners) {
+    for (const auto& d : detections.tags) {
+      for (TagObservation& obs : frame.tags) {
+        if (obs.id == d.id) SetCornerWeights(d.corner_covariance, camera_, options_.corner_sigma_reference_px,
+                                          options_.corner_sigma_floor_px, &obs);
+      }
+    }
   }
   return frame;
 }

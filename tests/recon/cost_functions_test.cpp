@@ -92,6 +92,18 @@ TEST(CostFunctions, TagReprojectionErrorDerivativesAndAgreementWithPerCorner) {
     EXPECT_NEAR(block[2 * k], corner[0], 1e-9);
     EXPECT_NEAR(block[2 * k + 1], corner[1], 1e-9);
   }
+  // Each corner's weight (corner_weights.h) multiplies its residual.
+  std::array<Eigen::Matrix2d, 4> weights;
+  for (int k = 0; k < 4; ++k) weights[k] << 1.5 + k, 0.3, -0.2, 0.7;
+  ExpectDerivativesMatch(TagReprojectionError::Create(observed, 0.06, 1000, 990, weights), {nullptr, nullptr},
+                         {cam.data, tag.data});
+  double weighted[8];
+  ASSERT_TRUE(TagReprojectionError(observed, 0.06, 1000, 990, weights)(cam.data, tag.data, weighted));
+  for (int k = 0; k < 4; ++k) {
+    const Eigen::Vector2d expected = weights[k] * Eigen::Vector2d(block[2 * k], block[2 * k + 1]);
+    EXPECT_NEAR(weighted[2 * k], expected.x(), 1e-9);
+    EXPECT_NEAR(weighted[2 * k + 1], expected.y(), 1e-9);
+  }
 }
 
 // A pose block's tangent is [rotation (3), translation (3)], the rotation

@@ -42,6 +42,18 @@ void ProjectResidual(const Eigen::Matrix<T, 3, 1>& point_in_cam, const Eigen::Ve
   residual[0] = T(fx) * (point_in_cam.x() / point_in_cam.z() - T(observed.x()));
   residual[1] = T(fy) * (point_in_cam.y() / point_in_cam.z() - T(observed.y()));
 }
+// A corner's 2-vector residual times its weight (corner_weights.h).
+template <class T>
+void Whiten(const Eigen::Matrix2d& weight, T* residual) {
+  const T r0 = residual[0], r1 = residual[1];
+  residual[0] = T(weight(0, 0)) * r0 + T(weight(0, 1)) * r1;
+  residual[1] = T(weight(1, 0)) * r0 + T(weight(1, 1)) * r1;
+}
+using CornerWeights = std::array<Eigen::Matrix2d, 4>;
+inline CornerWeights Unweighted() {
+  return {Eigen::Matrix2d::Identity(), Eigen::Matrix2d::Identity(), Eigen::Matrix2d::Identity(),
+          Eigen::Matrix2d::Identity()};
+}
 }  // namespace cost_detail
 
 // A free 3D point seen by a camera: blocks cam_from_world[7], point_in_world[3].
@@ -62,25 +74,29 @@ struct ReprojectionError {
   double fx, fy;
 };
 
-// A point held fixed (a known-map corner) seen by a camera: block cam_from_world.
+// A point held fixed (a known-map corner) seen by a camera, the residual
+// times `weight` (corner_weights.h): block cam_from_world.
 struct FixedPointReprojectionError {
   FixedPointReprojectionError(const Eigen::Vector2d& observed_normalized, const Eigen::Vector3d& point_in_world,
-                              double fx, double fy)
-      : observed(observed_normalized), point(point_in_world), fx(fx), fy(fy) {}
+                              double fx, double fy, const Eigen::Matrix2d& weight = Eigen::Matrix2d::Identity())
+      : observed(observed_normalized), point(point_in_world), fx(fx), fy(fy), weight(weight) {}
   template <class T>
   bool operator()(const T* cam_from_world, T* residual) const {
     cost_detail::ProjectResidual(cost_detail::Transform(cam_from_world, point.cast<T>().eval()), observed, fx, fy,
                                  residual);
+    cost_detail::Whiten(weight, residual);
     return true;
   }
   static ceres::CostFunction* Create(const Eigen::Vector2d& observed_normalized, const Eigen::Vector3d& point_in_world,
-                                     double fx, double fy) {
+                                     double fx, double fy,
+                                     const Eigen::Matrix2d& weight = Eigen::Matrix2d::Identity()) {
     return new ceres::AutoDiffCostFunction<FixedPointReprojectionError, 2, 7>(
-        new FixedPointReprojectionError(observed_normalized, point_in_world, fx, fy));
+        new FixedPointReprojectionError(observed_normalized, point_in_world, fx, fy, weight));
   }
   Eigen::Vector2d observed;
   Eigen::Vector3d point;
   double fx, fy;
+  Eigen::Matrix2d weight;
 };
 
 // Corner k of a square tag of known size, the tag a rigid body:
@@ -111,8 +127,9 @@ struct TagCornerReprojectionError {
 // robust loss treats the tag as one unit (a misdetected tag is wrong as a
 // whole). Same blocks and geometry as TagCornerReprojectionError.
 struct TagReprojectionError {
-  TagReprojectionError(const std::array<Eigen::Vector2d, 4>& observed_normalized, double size_m, double fx, double fy)
-      : observed(observed_normalized), half(0.5 * size_m), fx(fx), fy(fy) {}
+  TagReprojectionError(const std::array<Eigen::Vector2d, 4>& observed_normalized, double size_m, double fx, double fy,
+                       const cost_detail::CornerWeights& weights = cost_detail::Unweighted())
+      : observed(observed_normalized), half(0.5 * size_m), fx(fx), fy(fy), weights(weights) {}
   template <class T>
   bool operator()(const T* cam_from_world, const T* world_from_tag, T* residual) const {
     Eigen::Matrix<T, 3, 3> r;
@@ -122,16 +139,20 @@ struct TagReprojectionError {
     for (int k = 0; k < 4; ++k) {
       const Eigen::Matrix<T, 3, 1> p = r.col(0) * T(kSigns[k][0] * half) + r.col(1) * T(kSigns[k][1] * half) + t;
       cost_detail::ProjectResidual(p, observed[k], fx, fy, residual + 2 * k);
+      cost_detail::Whiten(weights[k], residual + 2 * k);
     }
     return true;
   }
+  // `weights`: each corner's (corner_weights.h), none by default.
   static ceres::CostFunction* Create(const std::array<Eigen::Vector2d, 4>& observed_normalized, double size_m,
-                                     double fx, double fy) {
+                                     double fx, double fy,
+                                     const cost_detail::CornerWeights& weights = cost_detail::Unweighted()) {
     return new ceres::AutoDiffCostFunction<TagReprojectionError, 8, 7, 7>(
-        new TagReprojectionError(observed_normalized, size_m, fx, fy));
+        new TagReprojectionError(observed_normalized, size_m, fx, fy, weights));
   }
   std::array<Eigen::Vector2d, 4> observed;
   double half, fx, fy;
+  cost_detail::CornerWeights weights;
 };
 
 // Pixel-space residuals with the intrinsics as parameters, for refining a
@@ -149,8 +170,9 @@ void ProjectPixelResidual(const Eigen::Matrix<T, 3, 1>& p, const T* k, const Eig
 }  // namespace cost_detail
 
 struct TagPixelReprojectionError {
-  TagPixelReprojectionError(const std::array<Eigen::Vector2d, 4>& observed_px, double size_m)
-      : observed(observed_px), half(0.5 * size_m) {}
+  TagPixelReprojectionError(const std::array<Eigen::Vector2d, 4>& observed_px, double size_m,
+                            const cost_detail::CornerWeights& weights = cost_detail::Unweighted())
+      : observed(observed_px), half(0.5 * size_m), weights(weights) {}
   template <class T>
   bool operator()(const T* cam_from_world, const T* world_from_tag, const T* intrinsics, T* residual) const {
     Eigen::Matrix<T, 3, 3> r;
@@ -160,32 +182,39 @@ struct TagPixelReprojectionError {
     for (int k = 0; k < 4; ++k) {
       const Eigen::Matrix<T, 3, 1> p = r.col(0) * T(kSigns[k][0] * half) + r.col(1) * T(kSigns[k][1] * half) + t;
       cost_detail::ProjectPixelResidual(p, intrinsics, observed[k], residual + 2 * k);
+      cost_detail::Whiten(weights[k], residual + 2 * k);
     }
     return true;
   }
-  static ceres::CostFunction* Create(const std::array<Eigen::Vector2d, 4>& observed_px, double size_m) {
+  static ceres::CostFunction* Create(const std::array<Eigen::Vector2d, 4>& observed_px, double size_m,
+                                     const cost_detail::CornerWeights& weights = cost_detail::Unweighted()) {
     return new ceres::AutoDiffCostFunction<TagPixelReprojectionError, 8, 7, 7, 6>(
-        new TagPixelReprojectionError(observed_px, size_m));
+        new TagPixelReprojectionError(observed_px, size_m, weights));
   }
   std::array<Eigen::Vector2d, 4> observed;
   double half;
+  cost_detail::CornerWeights weights;
 };
 
 struct FixedPointPixelReprojectionError {
-  FixedPointPixelReprojectionError(const Eigen::Vector2d& observed_px, const Eigen::Vector3d& point_in_world)
-      : observed(observed_px), point(point_in_world) {}
+  FixedPointPixelReprojectionError(const Eigen::Vector2d& observed_px, const Eigen::Vector3d& point_in_world,
+                                   const Eigen::Matrix2d& weight = Eigen::Matrix2d::Identity())
+      : observed(observed_px), point(point_in_world), weight(weight) {}
   template <class T>
   bool operator()(const T* cam_from_world, const T* intrinsics, T* residual) const {
     cost_detail::ProjectPixelResidual(cost_detail::Transform(cam_from_world, point.cast<T>().eval()), intrinsics,
                                       observed, residual);
+    cost_detail::Whiten(weight, residual);
     return true;
   }
-  static ceres::CostFunction* Create(const Eigen::Vector2d& observed_px, const Eigen::Vector3d& point_in_world) {
+  static ceres::CostFunction* Create(const Eigen::Vector2d& observed_px, const Eigen::Vector3d& point_in_world,
+                                     const Eigen::Matrix2d& weight = Eigen::Matrix2d::Identity()) {
     return new ceres::AutoDiffCostFunction<FixedPointPixelReprojectionError, 2, 7, 6>(
-        new FixedPointPixelReprojectionError(observed_px, point_in_world));
+        new FixedPointPixelReprojectionError(observed_px, point_in_world, weight));
   }
   Eigen::Vector2d observed;
   Eigen::Vector3d point;
+  Eigen::Matrix2d weight;
 };
 
 // A free point seen by a camera whose intrinsics are adjusted, the residual

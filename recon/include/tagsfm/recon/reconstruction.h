@@ -29,6 +29,15 @@ struct TagObservation {
   // A corner of it disagrees with the rest of the frame (e.g. a tag cut by
   // the image border): left out of the adjustments and the RMS figures.
   bool outlier = false;
+  // Each corner's residual weight W from the detector's covariance C
+  // (TagDetection::corner_covariance): W^T W = sigma_ref^2 C^-1, so a corner
+  // counts by its own precision and one at the reference sigma as before.
+  // In the normalized residuals' units (undistorted pixels) and in image
+  // pixels (when the intrinsics are adjusted). Identity when C is unknown.
+  std::array<Eigen::Matrix2d, 4> weight_undistorted{Eigen::Matrix2d::Identity(), Eigen::Matrix2d::Identity(),
+                                                    Eigen::Matrix2d::Identity(), Eigen::Matrix2d::Identity()};
+  std::array<Eigen::Matrix2d, 4> weight_pixels{Eigen::Matrix2d::Identity(), Eigen::Matrix2d::Identity(),
+                                               Eigen::Matrix2d::Identity(), Eigen::Matrix2d::Identity()};
 };
 
 struct FrameState {

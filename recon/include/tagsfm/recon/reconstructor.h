@@ -60,6 +60,17 @@ struct ReconstructorOptions {
   // length when the scale comes from the tags (no scale bars). 2e-4 is a
   // print checked with a calliper; an unchecked office print is ~1e-3.
   double tag_size_sigma_rel = 2e-4;
+  // Each corner's residual weighted by the edge fit's covariance of it
+  // (TagDetection::corner_covariance, plus corner_sigma_floor_px squared),
+  // relative to a corner of corner_sigma_reference_px (a typical one: the
+  // rendered walks' median corner error is 0.028 px), so that robust losses
+  // keep their scale in pixels; its sigma held within 5x of the reference.
+  // Off by default: on rendered walks it helps five of eight, but on the
+  // real swatbotics room it maps a tag the unweighted survey refuses and
+  // bends two others (docs/recon.md).
+  bool weight_corners = false;
+  double corner_sigma_reference_px = 0.03;
+  double corner_sigma_floor_px = 0.0;
   // The feature points' views are fitted on the targets' poses. When the
   // adjustment with the points moves the cameras at the points by more
   // than this (median, px: the refined views' noise), the targets alone
