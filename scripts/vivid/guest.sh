@@ -36,9 +36,12 @@ EOF
   run v4l2-ctl -d /dev/video0 -C brightness > "$R/$name.brightness" 2>&1
 }
 
-wait_for_frames() {  # NAME COUNT: until the recording has COUNT frames (at most 20 s)
+# At most 120 s: the recorder's start under TCG on a loaded host was seen to
+# take over 20 s, the old limit, and the device was then unplugged before
+# the recorder had opened it (the replug case then recorded without a gap).
+wait_for_frames() {  # NAME COUNT: until the recording has COUNT frames (at most 120 s)
   i=0
-  while [ $i -lt 100 ] && [ "$(ls "$R/$1/frames" 2>/dev/null | wc -l)" -lt "$2" ]; do sleep 0.2; i=$((i + 1)); done
+  while [ $i -lt 600 ] && [ "$(ls "$R/$1/frames" 2>/dev/null | wc -l)" -lt "$2" ]; do sleep 0.2; i=$((i + 1)); done
 }
 
 record grey GREY 200 0 --frames "$FRAMES"
