@@ -295,6 +295,9 @@ nlohmann::json Summary(const Input& in, const MapRun& run) {
   out["matches_per_pair"] = run.pairs ? static_cast<double>(run.matches) / static_cast<double>(run.pairs) : 0.0;
   out["match_ms_per_pair"] = run.pairs ? run.add_ms / static_cast<double>(run.pairs) : 0.0;
   out["tracks"] = run.tracks.size();
+  std::map<size_t, int> tracks_by_length;
+  for (const FeatureTrack& t : run.tracks) ++tracks_by_length[std::min<size_t>(t.observations.size(), 10)];
+  for (const auto& [length, count] : tracks_by_length) out["tracks_by_views"][std::to_string(length)] = count;
   out["triangulate_ms"] = run.triangulate_ms;
   out["points"] = run.points.size();
   out["triangulation"] = FeatureTriangulationJson(run.triangulation);
