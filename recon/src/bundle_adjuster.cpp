@@ -60,8 +60,8 @@ int AddTagResiduals(ceres::Problem* problem, PoseParams* cam_from_world, const T
     }
     return 4;
   }
-  problem->AddResidualBlock(TagReprojectionError::Create(obs.normalized, tag.size_m, fx, fy, obs.weight_undistorted), tag_loss,
-                            cam_from_world->data, world_from_tag->data);
+  problem->AddResidualBlock(TagReprojectionError::Create(obs.normalized, tag.size_m, fx, fy, obs.weight_undistorted),
+                            tag_loss, cam_from_world->data, world_from_tag->data);
   return 1;
 }
 
@@ -475,8 +475,8 @@ int AddTargetResiduals(ceres::Problem* problem, const std::vector<FrameState*>& 
         }
       } else {
         problem->AddResidualBlock(TagPixelReprojectionError::Create(obs.pixels, tag.size_m, obs.weight_pixels),
-                                  SharedLoss(2 * huber_px),
-                                  frame->cam_from_world.data, tag.world_from_tag.data, intrinsics);
+                                  SharedLoss(2 * huber_px), frame->cam_from_world.data, tag.world_from_tag.data,
+                                  intrinsics);
       }
       ++residuals;
     }

@@ -90,20 +90,16 @@ FrameState& Reconstructor::MakeFrameState(const DetectionSet& detections) {
     TagObservation obs;
     obs.id = d.id;
     obs.pixels = d.corners;
+    if (options_.weight_corners) {
+      SetCornerWeights(d.corner_covariance, camera_, options_.corner_sigma_reference_px, options_.corner_sigma_floor_px,
+                       &obs);
+    }
     frame.tags.push_back(obs);
     pixels.insert(pixels.end(), d.corners.begin(), d.corners.end());
   }
   const std::vector<Eigen::Vector2d> normalized = camera_.PixelsToNormalized(pixels);
   for (size_t i = 0; i < frame.tags.size(); ++i) {
     for (int k = 0; k < 4; ++k) frame.tags[i].normalized[k] = normalized[4 * i + k];
-  }
-  if (options_.weight_corners) {
-    for (const auto& d : detections.tags) {
-      for (TagObservation& obs : frame.tags) {
-        if (obs.id == d.id) SetCornerWeights(d.corner_covariance, camera_, options_.corner_sigma_reference_px,
-                                          options_.corner_sigma_floor_px, &obs);
-      }
-    }
   }
   return frame;
 }
