@@ -8,6 +8,7 @@
 
 #include <ceres/ceres.h>
 
+#include "adjustment_covariance.h"
 #include "tagsfm/recon/cost_functions.h"
 #include "tagsfm/recon/tag_geometry.h"
 
@@ -250,147 +251,6 @@ double RmsOf(ceres::Problem* problem) {
   return residuals.empty() ? 0.0 : std::sqrt(2.0 * cost / (static_cast<double>(residuals.size()) / 2.0));
 }
 
-// The learned tags whose poses the adjustment varied, each with its first
-// column among the tag unknowns (6 per tag, in id order).
-std::map<const double*, int> LearnedTagColumns(ceres::Problem* problem, std::map<TagId, MapTag>* tags,
-                                               std::vector<TagId>* ids) {
-  std::map<const double*, int> tag_column;
-  for (auto& [id, tag] : *tags) {
-    if (tag.known || tag.anchor || !problem->HasParameterBlock(tag.world_from_tag.data)) continue;
-    tag_column[tag.world_from_tag.data] = 6 * static_cast<int>(ids->size());
-    ids->push_back(id);
-  }
-  return tag_column;
-}
-
-// The normal equations J^T J by blocks: per camera H_cc (6x6) and its H_ct
-// with each other block it meets (6x6), and H_tt over all the other
-// unknowns: the learned tags' and, when adjusted, the intrinsics' (6 each).
-struct NormalBlocks {
-  std::vector<Eigen::Matrix<double, 6, 6>> h_cc;
-  std::vector<std::map<int, Eigen::Matrix<double, 6, 6>>> h_ct;
-  Eigen::MatrixXd h_tt;
-};
-
-// Accumulated row by row of the sparse Jacobian, whose columns are the
-// cameras' 6 each and then the other blocks' 6 each. A row meets at most
-// one camera, one tag and the intrinsics.
-NormalBlocks AccumulateNormalBlocks(const ceres::CRSMatrix& jacobian, int cameras, int other_unknowns) {
-  using Vector6d = Eigen::Matrix<double, 6, 1>;
-  NormalBlocks n;
-  n.h_cc.assign(static_cast<size_t>(cameras), Eigen::Matrix<double, 6, 6>::Zero());
-  n.h_ct.resize(static_cast<size_t>(cameras));
-  n.h_tt = Eigen::MatrixXd::Zero(other_unknowns, other_unknowns);
-  const int camera_columns = 6 * cameras;
-  for (int r = 0; r < jacobian.num_rows; ++r) {
-    int camera = -1;
-    Vector6d jc = Vector6d::Zero();
-    std::array<std::pair<int, Vector6d>, 2> others;  // block, its row of the Jacobian
-    int n_others = 0;
-    for (int k = jacobian.rows[r]; k < jacobian.rows[r + 1]; ++k) {
-      const int col = jacobian.cols[k];
-      if (col < camera_columns) {
-        camera = col / 6;
-        jc(col % 6) = jacobian.values[k];
-        continue;
-      }
-      const int block = (col - camera_columns) / 6;
-      if (n_others == 0 || others[static_cast<size_t>(n_others - 1)].first != block) {
-        if (n_others == 2) continue;  // not a residual of this adjustment's kinds
-        others[static_cast<size_t>(n_others++)] = {block, Vector6d::Zero()};
-      }
-      others[static_cast<size_t>(n_others - 1)].second((col - camera_columns) % 6) = jacobian.values[k];
-    }
-    if (camera >= 0) n.h_cc[camera] += jc * jc.transpose();
-    for (int a = 0; a < n_others; ++a) {
-      const auto& [block_a, ja] = others[static_cast<size_t>(a)];
-      for (int b = 0; b < n_others; ++b) {
-        const auto& [block_b, jb] = others[static_cast<size_t>(b)];
-        n.h_tt.block<6, 6>(6 * block_a, 6 * block_b) += ja * jb.transpose();
-      }
-      if (camera >= 0) {
-        auto [it, inserted] = n.h_ct[camera].try_emplace(block_a, Eigen::Matrix<double, 6, 6>::Zero());
-        it->second += jc * ja.transpose();
-      }
-    }
-  }
-  return n;
-}
-
-// The cameras eliminated: S = H_tt - sum_c H_tc H_cc^-1 H_ct, the other
-// blocks' information with every camera free.
-Eigen::MatrixXd TagSchurComplement(const NormalBlocks& n) {
-  Eigen::MatrixXd s = n.h_tt;
-  for (size_t c = 0; c < n.h_cc.size(); ++c) {
-    const Eigen::LDLT<Eigen::Matrix<double, 6, 6>> h_cc_inverse(n.h_cc[c]);
-    if (h_cc_inverse.info() != Eigen::Success) continue;
-    std::map<int, Eigen::Matrix<double, 6, 6>> solved;  // H_cc^-1 H_cb
-    for (const auto& [b, h_cb] : n.h_ct[c]) solved[b] = h_cc_inverse.solve(h_cb);
-    for (const auto& [a, h_ca] : n.h_ct[c]) {
-      for (const auto& [b, x_b] : solved) s.block<6, 6>(6 * a, 6 * b) -= h_ca.transpose() * x_b;
-    }
-  }
-  return s;
-}
-
-// The learned tags' joint covariance and, when adjusted, the intrinsics':
-// (J^T J)^-1 restricted to them, computed by eliminating the cameras (each
-// camera's 6x6 block is independent of the others: a Schur complement), so
-// its cost grows with the observations, not with the square of the frames.
-// With the intrinsics among the unknowns, the tags' covariance includes
-// what their uncertainty does to the map.
-void ComputeCovariance(ceres::Problem* problem, const std::vector<FrameState*>& frames, std::map<TagId, MapTag>* tags,
-                       double* intrinsics, int free_parameters, GlobalAdjustmentSummary* out) {
-  TagCovariance result;
-  const std::map<const double*, int> tag_column = LearnedTagColumns(problem, tags, &result.ids);
-  const bool with_intrinsics = intrinsics != nullptr && problem->HasParameterBlock(intrinsics);
-  if (result.ids.empty() && !with_intrinsics) {
-    out->covariance_note = "no learned tags: every target was held fixed";
-    return;
-  }
-  // The Jacobian's columns: the cameras', then the learned tags' (in tangent
-  // space: 6 per pose).
-  std::vector<double*> blocks;
-  int cameras = 0;
-  for (FrameState* f : frames) {
-    if (!problem->HasParameterBlock(f->cam_from_world.data)) continue;
-    blocks.push_back(f->cam_from_world.data);
-    ++cameras;
-  }
-  for (auto& [id, tag] : *tags) {
-    if (tag_column.count(tag.world_from_tag.data)) blocks.push_back(tag.world_from_tag.data);
-  }
-  if (with_intrinsics) blocks.push_back(intrinsics);
-  ceres::Problem::EvaluateOptions eval;
-  eval.parameter_blocks = blocks;
-  double cost = 0;
-  std::vector<double> residuals;
-  ceres::CRSMatrix jacobian;
-  if (!problem->Evaluate(eval, &cost, &residuals, nullptr, &jacobian)) {
-    out->covariance_note = "the adjustment's Jacobian could not be evaluated";
-    return;
-  }
-  const int n_tags = 6 * static_cast<int>(result.ids.size());
-  const int n_others = n_tags + (with_intrinsics ? 6 : 0);
-  const Eigen::LDLT<Eigen::MatrixXd> s_inverse(TagSchurComplement(AccumulateNormalBlocks(jacobian, cameras, n_others)));
-  if (s_inverse.info() != Eigen::Success || s_inverse.vectorD().minCoeff() <= 0) {
-    out->covariance_note = "the adjustment's covariance could not be computed (rank deficient)";
-    return;
-  }
-  // For unit-variance residuals; scale by the a posteriori variance of a
-  // residual, sum r^2 / (m - n).
-  const double dof = static_cast<double>(residuals.size()) - free_parameters;
-  const double variance = dof > 0 ? 2.0 * cost / dof : 1.0;
-  const Eigen::MatrixXd all = s_inverse.solve(Eigen::MatrixXd::Identity(n_others, n_others)) * variance;
-  if (with_intrinsics) out->intrinsics_covariance = all.bottomRightCorner<6, 6>();
-  if (result.ids.empty()) {
-    out->covariance_note = "no learned tags: every target was held fixed";
-    return;
-  }
-  result.covariance = all.topLeftCorner(n_tags, n_tags);
-  out->covariance = std::move(result);
-}
-
 // The feature points eliminated first and alone: every eliminated block is
 // then a 3-vector seen only by 2-row residuals on a 6-dof pose, which Ceres'
 // Schur eliminator has compiled for (its automatic ordering also eliminated
@@ -514,6 +374,8 @@ GlobalAdjustmentSummary AdjustGlobally(const std::vector<FrameState*>& frames, s
   std::array<double, 6> intrinsics = IntrinsicsBlock(fx, fy, refine_camera);
   double* adjusted_intrinsics = refine_camera ? intrinsics.data() : nullptr;
   int free_parameters = AddTargetResiduals(&problem, frames, tags, fx, fy, options.huber_px, adjusted_intrinsics);
+  // The targets' residuals come first: their spread is the variance the covariance is scaled by.
+  const int target_residuals = problem.NumResiduals();
   if (points && points->points) AddPointResiduals(&problem, frames, *points, fx, fy, adjusted_intrinsics);
   if (adjusted_intrinsics && options.square_pixels && problem.HasParameterBlock(adjusted_intrinsics)) {
     // 1e-3 px: a thousandth of any corner's noise, yet a normal matrix
@@ -542,7 +404,10 @@ GlobalAdjustmentSummary AdjustGlobally(const std::vector<FrameState*>& frames, s
     StoreIntrinsics(intrinsics, refine_camera);
     free_parameters += 6;
   }
-  if (options.compute_covariance) ComputeCovariance(&problem, frames, tags, adjusted_intrinsics, free_parameters, &out);
+  if (options.compute_covariance) {
+    ComputeCovariance(&problem, frames, tags, adjusted_intrinsics, points ? points->points : nullptr, target_residuals,
+                      free_parameters, &out);
+  }
   out.covariance_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count();
   return out;
 }
