@@ -1,0 +1,125 @@
+// The self-survey as a user runs it (`tagsfm replay`, feature points and
+// all), checked against the truth on rendered walks (issue 14): each walk's
+// map after a rigid fit and its scale, and the sigma that `measure` and
+// `evaluate` give a length between two targets ("honest sigma"): every tag
+// pair's error E over its sigma, pooled. A sigma that describes the error
+// gives E / sigma a mean near 0 and a standard deviation near 1.
+#include <cmath>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include "run_command.h"
+#include "test_paths.h"
+
+namespace tagsfm {
+namespace {
+
+namespace fs = std::filesystem;
+using testing::ReadText;
+using testing::RunCommand;
+using testing::TagsfmExe;
+using testing::TempDir;
+
+struct WalkScore {
+  double rigid_ratio = 0;      // scene size / corner RMS after a rigid fit
+  double scale_error_ppm = 0;  // the similarity fit's scale - 1
+  std::vector<double> error_over_sigma;  // one per tag pair
+};
+
+// One walk: rendered, replayed with the default pipeline, scored.
+WalkScore ScoreWalk(const fs::path& dir, int seed, const std::string& lens) {
+  const std::string exe = TagsfmExe().string();
+  const fs::path rec = dir / "rec", out = dir / "out", config = dir / "config.yaml";
+  EXPECT_EQ(RunCommand(exe + " synth box --out " + rec.string() +
+                           " --frames 20 --width 1280 --height 720 --noise 2 --blur 0.7 --threads 2 --seed " +
+                           std::to_string(seed) + lens,
+                       dir / "synth.log"),
+            0)
+      << ReadText(dir / "synth.log");
+  // The renderer prints every tag exactly at its nominal size: the print
+  // tolerance a length's sigma must carry is then 0, and what remains is the
+  // adjustment's covariance.
+  std::ofstream(config) << "pipeline:\n  recon:\n    tag_size_sigma_rel: 0\n";
+  EXPECT_EQ(RunCommand(exe + " replay " + rec.string() + " --out " + out.string() + " --config " +
+                           config.string(),
+                       dir / "replay.log"),
+            0)
+      << ReadText(dir / "replay.log");
+  EXPECT_EQ(RunCommand(exe + " evaluate " + out.string() + " " + rec.string() + " 2> " + (dir / "eval.err").string(),
+                       dir / "eval.json"),
+            0)
+      << ReadText(dir / "eval.err");
+  WalkScore score;
+  const nlohmann::json e = nlohmann::json::parse(ReadText(dir / "eval.json"), nullptr, false);
+  if (e.is_discarded() || !e.contains("lengths") || e["lengths"].is_null() || !e.contains("map")) {
+    ADD_FAILURE() << "seed " << seed << ": no map or lengths in evaluate's output";
+    return score;
+  }
+  score.rigid_ratio = e["map"]["rigid_ratio"].get<double>();
+  score.scale_error_ppm = e["map"]["scale_error_ppm"].get<double>();
+  for (const auto& pair : e["lengths"]["pairs"]) {
+    if (pair["sigma_m"].is_number() && pair["sigma_m"].get<double>() > 0) {
+      score.error_over_sigma.push_back(pair["error_m"].get<double>() / pair["sigma_m"].get<double>());
+    }
+  }
+  return score;
+}
+
+// Eight 20-frame 1280x720 box walks (noise 2, blur 0.7), seeds 1-8, a lens
+// with k1 -0.05 on the even ones, tags printed with one module of white
+// (the default) on six walks and two on seeds 7 and 8.
+// - The map, per walk: the issue's 1/10,000 of the scene after a rigid fit
+//   and scale within 200 ppm. Measured 2026-12-06: 1/10,573 (seed 1: a
+//   floor tag seen in two neighbouring frames, 0.91 mm off at a sigma of
+//   0.83 mm, is 79 % of its mean square) to 1/47,497, geometric mean
+//   1/28,500; scale -5 to +73 ppm. The same seeds all at one module gave
+//   1/18,200 (geometric mean; worst 1/7,425) without the feature points
+//   (`replay --no-features`) and 1/28,000 (worst 1/10,573) with them: the
+//   points' rays hold the poses where few tags are in view.
+// - E / sigma, pooled, not per walk: a walk's pairs share their tags and its
+//   scale, so one walk's E / sigma spread is that of a few numbers. The
+//   renderer prints exactly, so the print term is left out
+//   (tag_size_sigma_rel 0); with the default 200 ppm in every sigma the
+//   spread is about half (conservative by design on exact prints). Measured
+//   2026-12-06: 2,535 pairs, mean -0.25, std 0.81, none beyond 3 sigma
+//   (the tags' covariance from the adjustment with the points; the
+//   targets-only one, which knows nothing of the points' rays, gave std
+//   0.66).
+//   Bounds: the issue's (mean within +-0.5, std 0.7-1.5).
+TEST(SelfSurveyWalksSlow, MapsAndLengthSigmasAgainstTheTruth) {
+  std::vector<double> pooled;
+  for (int seed = 1; seed <= 8; ++seed) {
+    TempDir scratch;
+    std::string options = seed % 2 == 0 ? " --distortion -0.05,0.01,0,0" : "";
+    if (seed >= 7) options += " --tag-margin 2";
+    const WalkScore walk = ScoreWalk(scratch.path(), seed, options);
+    std::printf("seed %d: map 1/%.0f rigid, scale %+.0f ppm, %zu pairs\n", seed, walk.rigid_ratio,
+                walk.scale_error_ppm, walk.error_over_sigma.size());
+    EXPECT_GT(walk.rigid_ratio, 10000) << "seed " << seed;
+    EXPECT_LT(std::abs(walk.scale_error_ppm), 200) << "seed " << seed;
+    EXPECT_GT(walk.error_over_sigma.size(), 100u) << "seed " << seed;  // 23-28 tags mapped: 250-380 pairs
+    pooled.insert(pooled.end(), walk.error_over_sigma.begin(), walk.error_over_sigma.end());
+  }
+  ASSERT_GT(pooled.size(), 1000u);
+  double sum = 0, sum_sq = 0;
+  int beyond = 0;
+  for (double r : pooled) {
+    sum += r;
+    beyond += std::abs(r) > 3;
+  }
+  const double mean = sum / static_cast<double>(pooled.size());
+  for (double r : pooled) sum_sq += (r - mean) * (r - mean);
+  const double std_dev = std::sqrt(sum_sq / static_cast<double>(pooled.size() - 1));
+  std::printf("E / sigma over %zu pairs of 8 walks: mean %.3f, std %.3f, beyond 3 sigma %d\n", pooled.size(), mean,
+              std_dev, beyond);
+  EXPECT_LT(std::abs(mean), 0.5);
+  EXPECT_GT(std_dev, 0.7);
+  EXPECT_LT(std_dev, 1.5);
+  EXPECT_LT(beyond, static_cast<int>(0.01 * static_cast<double>(pooled.size())));
+}
+
+}  // namespace
+}  // namespace tagsfm
