@@ -664,7 +664,10 @@ ReconstructionResult Reconstructor::Finish(const PointTriangulation& triangulate
   result.frames_thinned = frames_thinned_;
   if (options_.final_adjustment && !registered.empty()) AdjustFinally(registered, &result);
   ApplyScale(&registered, &result);
-  if (triangulate && !registered.empty()) TriangulateAndAdjust(registered, triangulate, &result);
+  if (triangulate && !registered.empty()) {
+    TriangulateAndAdjust(registered, triangulate, &result);
+    RefitScaleBars(&registered, &result);
+  }
   CollectReprojectionStatistics(registered, &result);
   result.camera = camera_;
   result.frames.assign(frames_.begin(), frames_.end());
@@ -840,6 +843,32 @@ void Reconstructor::ApplyScale(std::vector<FrameState*>* registered, Reconstruct
     return;
   }
   ScaleScene(fit->scale, registered, &tags_, &result->covariance);
+  result->scale = *fit;
+}
+
+void Reconstructor::RefitScaleBars(std::vector<FrameState*>* registered, ReconstructionResult* result) {
+  // The points' rays moved the tags (and so the bars' lengths in the map)
+  // and sharpened their covariance: the bars fitted on that map give the
+  // scale it needs, with the sigma it has. The correction is a factor near
+  // 1 on top of the first fit's.
+  if (result->scale.source != "scale bars" || result->points_adjusted == 0) return;
+  TargetCornerMap corners;
+  for (const auto& [id, tag] : tags_) corners[id] = tag.CornersInWorld();
+  Result<MapScale> fit = FitScaleBars(targets_.scale_bars, corners, result->covariance);
+  if (!fit) return;  // the same bars were fitted before the points; their tags are still mapped
+  const double correction = fit->scale;
+  ScaleScene(correction, registered, &tags_, &result->covariance);
+  for (FeaturePoint& p : result->feature_points) {
+    p.position *= correction;
+    p.covariance *= correction * correction;
+  }
+  // Each bar's length as the map at the nominal sizes would give it, so
+  // that factor x length - certified is still its residual.
+  for (ScaleBarCheck& bar : fit->bars) {
+    bar.measured_m /= result->scale.scale;
+    bar.sigma_m /= result->scale.scale;
+  }
+  fit->scale = result->scale.scale * correction;
   result->scale = *fit;
 }
 

@@ -178,6 +178,8 @@ class Reconstructor {
                             ReconstructionResult* result);
   void AdjustWithPoints(const std::vector<FrameState*>& registered, std::vector<FeaturePoint>* points,
                         ReconstructionResult* result);
+  // The scale bars fitted again on the map the points' adjustment left.
+  void RefitScaleBars(std::vector<FrameState*>* registered, ReconstructionResult* result);
   // Every tag seen but not in the map, with why (ReconstructionResult::unmapped_tags).
   std::map<TagId, std::string> UnmappedTagReasons() const;
   void CollectReprojectionStatistics(const std::vector<FrameState*>& registered, ReconstructionResult* result) const;

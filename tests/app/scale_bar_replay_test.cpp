@@ -1,0 +1,129 @@
+// One scale bar through `tagsfm replay` as a user runs it (feature points
+// included), on rendered walks whose tags are printed 0.5 % too large
+// (issue 14: the scale within 50 ppm of the truth). The bare reconstructor's
+// case, without the points, is tests/recon/scale_bars_test.cpp.
+#include <cmath>
+#include <fstream>
+#include <map>
+#include <sstream>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include "run_command.h"
+#include "tagsfm/core/csv_formats.h"
+#include "tagsfm/recon/tag_geometry.h"
+#include "test_paths.h"
+
+namespace tagsfm {
+namespace {
+
+namespace fs = std::filesystem;
+using testing::ReadText;
+using testing::RunCommand;
+using testing::TagsfmExe;
+using testing::TempDir;
+
+nlohmann::json ReadJsonFile(const fs::path& path) {
+  return nlohmann::json::parse(ReadText(path), nullptr, false);
+}
+
+// Renders the walk, then puts a bar where a surveyor would: between the two
+// mapped tags seen in five frames or more that lie farthest apart, at its
+// true length (certificate sigma 10 um).
+fs::path RenderWithBar(const fs::path& dir, int seed, const std::string& lens) {
+  const std::string exe = TagsfmExe().string();
+  const fs::path rec = dir / "rec";
+  std::ostringstream synth;
+  synth << exe << " synth box --out " << rec.string()
+        << " --frames 20 --width 1280 --height 720 --noise 2 --blur 0.7 --threads 2 --print-scale 1.005 --seed " << seed
+        << lens;
+  EXPECT_EQ(RunCommand(synth.str(), dir / "synth.log"), 0) << ReadText(dir / "synth.log");
+  std::string images;
+  for (const auto& entry : fs::directory_iterator(rec / "frames")) {
+    images += ' ';
+    images += entry.path().string();
+  }
+  EXPECT_EQ(RunCommand(exe + " detect --camera " + (rec / "recording.yaml").string() + images + " 2> " +
+                           (dir / "detect.err").string(),
+                       dir / "detect.json"),
+            0);
+  std::map<int, int> views;
+  const nlohmann::json detections = ReadJsonFile(dir / "detect.json");
+  if (detections.is_array()) {
+    for (const auto& image : detections) {
+      for (const auto& tag : image["tags"]) ++views[tag["id"].get<int>()];
+    }
+  }
+  // Only tags the survey maps can carry a bar (tags of 10-16 px that the
+  // detect command reads in a full-frame pass may stay unread by replay's
+  // tracking search).
+  EXPECT_EQ(RunCommand(exe + " replay " + rec.string() + " --out " + (dir / "first").string() + " --no-features",
+                       dir / "first.log"),
+            0)
+      << ReadText(dir / "first.log");
+  const auto mapped = ReadTargetsCsv(dir / "first/targets.csv");
+  EXPECT_TRUE(mapped.has_value());
+  const auto truth = ReadTargetsCsv(rec / "ground_truth/targets.csv");
+  EXPECT_TRUE(truth.has_value());
+  std::pair<int, int> bar{-1, -1};
+  double length = 0;
+  for (const auto& [a, n_a] : views) {
+    for (const auto& [b, n_b] : views) {
+      if (n_a < 5 || n_b < 5 || !truth || !mapped || !mapped->count(a) || !mapped->count(b)) continue;
+      const double l = (TagCenter(truth->at(a)) - TagCenter(truth->at(b))).norm();
+      if (l > length) {
+        length = l;
+        bar = {a, b};
+      }
+    }
+  }
+  EXPECT_GT(length, 1.0);
+  // The synth writes the targets block last: the bar goes under it.
+  std::ofstream(rec / "recording.yaml", std::ios::app)
+      << "  scale_bars:\n    - {a: " << bar.first << ", b: " << bar.second << ", length_m: " << std::to_string(length)
+      << ", sigma_m: 0.00001}\n";
+  return rec;
+}
+
+// Seeds and lens varied, none tuned (the same two walks as ScaleBarsSlow).
+// Measured 2026-12-06, scale by the lengths weighted by their sigma: seed 3
+// (bar 9-24, 1.507 m) -13 ppm, seed 8 (k1 -0.05, bar 3-24, 1.362 m) -9 ppm,
+// at a reported sigma of 56 and 52 ppm; with the bars fitted only before the
+// points' adjustment -23 and +30 ppm at 79 and 60 ppm. Bounds: the issue's
+// 50 ppm, and the reported sigma honest (within 3 of it).
+TEST(ScaleBarReplaySlow, OneBarFixesAPrinterHalfAPercentOffWithinFiftyPpm) {
+  for (const auto& [seed, lens] : std::vector<std::pair<int, std::string>>{{3, ""}, {8, " --distortion -0.05,0.01,0,0"}}) {
+    TempDir scratch;
+    const fs::path rec = RenderWithBar(scratch.path(), seed, lens), out = scratch.path() / "out";
+    const std::string exe = TagsfmExe().string();
+    ASSERT_EQ(RunCommand(exe + " replay " + rec.string() + " --out " + out.string(), scratch.path() / "replay.log"), 0)
+        << ReadText(scratch.path() / "replay.log");
+    ASSERT_EQ(RunCommand(exe + " evaluate " + out.string() + " " + rec.string() + " 2> " +
+                             (scratch.path() / "eval.err").string(),
+                         scratch.path() / "eval.json"),
+              0)
+        << ReadText(scratch.path() / "eval.err");
+    const nlohmann::json report = ReadJsonFile(out / "report.json");
+    const nlohmann::json evaluation = ReadJsonFile(scratch.path() / "eval.json");
+    ASSERT_FALSE(report.is_discarded());
+    ASSERT_FALSE(evaluation.is_discarded());
+    ASSERT_EQ(report["scale"]["source"], "scale bars") << report["scale"].dump();
+    EXPECT_NEAR(report["scale"]["factor"].get<double>(), 1.005, 1e-3);
+    const double scale_error_ppm = evaluation["lengths"]["weighted_error_per_length_ppm"].get<double>();
+    const double sigma_ppm = 1e6 * report["scale"]["sigma_rel"].get<double>();
+    const nlohmann::json& bar = report["scale"]["scale_bars"][0];
+    std::printf("seed %d: bar %s-%s %.3f m; scale error %+.1f ppm (lengths weighted by sigma), reported sigma %.1f ppm, "
+                "factor %.6f\n",
+                seed, bar["a"].dump().c_str(), bar["b"].dump().c_str(), bar["certified_m"].get<double>(),
+                scale_error_ppm, sigma_ppm, report["scale"]["factor"].get<double>());
+    EXPECT_LT(std::abs(scale_error_ppm), 50.0) << "seed " << seed;
+    EXPECT_LT(std::abs(scale_error_ppm), 3 * sigma_ppm) << "seed " << seed;
+  }
+}
+
+}  // namespace
+}  // namespace tagsfm
