@@ -99,8 +99,9 @@ TEST(ReplayRealDataSlow, SwatboticsRoomLoop) {
   std::cout << "swatbotics: " << registered << " of " << with_tags << " photos with tags registered, "
             << result.tags.size() << " tags mapped, reprojection RMS " << result.reprojection_rms_px
             << " px; loop: first photo " << first_rms << " px, last photo " << last_rms << " px\n";
-  // Measured: 70 of 72 registered, 15 of the 20 tags mapped, 0.33 px RMS;
-  // first photo 0.46 px, last 0.33 px. Short of the "every photo".
+  // Measured 2026-12-06: 72 of 72 registered, 19 of the 20 tags mapped
+  // (tag 18's views from the two passes of the loop disagree: docs/recon.md),
+  // 0.41 px RMS; first photo 0.46 px, last 0.32 px.
   EXPECT_GE(registered, 66);
   EXPECT_LT(result.reprojection_rms_px, 0.6);
   EXPECT_LT(first_rms, 1.0);
