@@ -830,9 +830,7 @@ void Reconstructor::ApplyScale(std::vector<FrameState*>* registered, Reconstruct
   result->scale.sigma_rel = options_.tag_size_sigma_rel;
   if (targets_.scale_bars.empty()) return;
   const bool known_map = std::any_of(tags_.begin(), tags_.end(), [](const auto& t) { return t.second.known; });
-  TargetCornerMap corners;
-  for (const auto& [id, tag] : tags_) corners[id] = tag.CornersInWorld();
-  Result<MapScale> fit = FitScaleBars(targets_.scale_bars, corners, result->covariance);
+  Result<MapScale> fit = FitScaleBars(targets_.scale_bars, MappedTargetCorners(), result->covariance);
   if (!fit) {
     result->scale.note = fit.error().message + "; the scale comes from the tag sizes";
     return;
@@ -852,9 +850,7 @@ void Reconstructor::RefitScaleBars(std::vector<FrameState*>* registered, Reconst
   // scale it needs, with the sigma it has. The correction is a factor near
   // 1 on top of the first fit's.
   if (result->scale.source != "scale bars" || result->points_adjusted == 0) return;
-  TargetCornerMap corners;
-  for (const auto& [id, tag] : tags_) corners[id] = tag.CornersInWorld();
-  Result<MapScale> fit = FitScaleBars(targets_.scale_bars, corners, result->covariance);
+  Result<MapScale> fit = FitScaleBars(targets_.scale_bars, MappedTargetCorners(), result->covariance);
   if (!fit) return;  // the same bars were fitted before the points; their tags are still mapped
   const double correction = fit->scale;
   ScaleScene(correction, registered, &tags_, &result->covariance);
