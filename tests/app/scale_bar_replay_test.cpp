@@ -5,7 +5,6 @@
 #include <cmath>
 #include <fstream>
 #include <map>
-#include <sstream>
 #include <string>
 #include <utility>
 #include <vector>
@@ -13,6 +12,7 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include "rendered_walk.h"
 #include "run_command.h"
 #include "tagsfm/core/csv_formats.h"
 #include "tagsfm/recon/tag_geometry.h"
@@ -24,6 +24,7 @@ namespace {
 namespace fs = std::filesystem;
 using testing::ReadText;
 using testing::RunCommand;
+using testing::SynthWalkCommand;
 using testing::TagsfmExe;
 using testing::TempDir;
 
@@ -37,11 +38,8 @@ nlohmann::json ReadJsonFile(const fs::path& path) {
 fs::path RenderWithBar(const fs::path& dir, int seed, const std::string& lens) {
   const std::string exe = TagsfmExe().string();
   const fs::path rec = dir / "rec";
-  std::ostringstream synth;
-  synth << exe << " synth box --out " << rec.string()
-        << " --frames 20 --width 1280 --height 720 --noise 2 --blur 0.7 --threads 2 --print-scale 1.005 --seed " << seed
-        << lens;
-  EXPECT_EQ(RunCommand(synth.str(), dir / "synth.log"), 0) << ReadText(dir / "synth.log");
+  EXPECT_EQ(RunCommand(SynthWalkCommand(rec, seed, " --print-scale 1.005" + lens), dir / "synth.log"), 0)
+      << ReadText(dir / "synth.log");
   std::string images;
   for (const auto& entry : fs::directory_iterator(rec / "frames")) {
     images += ' ';

@@ -11,6 +11,7 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include "rendered_walk.h"
 #include "run_command.h"
 #include "test_paths.h"
 
@@ -20,6 +21,7 @@ namespace {
 namespace fs = std::filesystem;
 using testing::ReadText;
 using testing::RunCommand;
+using testing::SynthWalkCommand;
 using testing::TagsfmExe;
 using testing::TempDir;
 
@@ -33,12 +35,7 @@ struct WalkScore {
 WalkScore ScoreWalk(const fs::path& dir, int seed, const std::string& lens) {
   const std::string exe = TagsfmExe().string();
   const fs::path rec = dir / "rec", out = dir / "out", config = dir / "config.yaml";
-  EXPECT_EQ(RunCommand(exe + " synth box --out " + rec.string() +
-                           " --frames 20 --width 1280 --height 720 --noise 2 --blur 0.7 --threads 2 --seed " +
-                           std::to_string(seed) + lens,
-                       dir / "synth.log"),
-            0)
-      << ReadText(dir / "synth.log");
+  EXPECT_EQ(RunCommand(SynthWalkCommand(rec, seed, lens), dir / "synth.log"), 0) << ReadText(dir / "synth.log");
   // The renderer prints every tag exactly at its nominal size: the print
   // tolerance a length's sigma must carry is then 0, and what remains is the
   // adjustment's covariance.

@@ -13,6 +13,7 @@
 #include "tagsfm/recon/reconstructor.h"
 #include "tagsfm/recon/scale_bars.h"
 #include "tagsfm/recon/tag_geometry.h"
+#include "rendered_walk.h"
 #include "test_paths.h"
 
 namespace tagsfm {
@@ -103,10 +104,8 @@ struct ScaleRun {
 
 ScaleRun RenderWithScaleBar(const std::filesystem::path& dir, double print_scale, int seed, const std::string& lens) {
   const std::string rec = (dir / "rec").string();
-  const std::string command = testing::TagsfmExe().string() + " synth box --out " + rec +
-                              " --frames 20 --width 1280 --height 720 --noise 2 --blur 0.7 --threads 2 --seed " +
-                              std::to_string(seed) + " --print-scale " + std::to_string(print_scale) + lens +
-                              " > /dev/null 2>&1";
+  const std::string command =
+      testing::SynthWalkCommand(rec, seed, " --print-scale " + std::to_string(print_scale) + lens) + " > /dev/null 2>&1";
   EXPECT_EQ(std::system(command.c_str()), 0) << command;
   ScaleRun run;
   auto reader = RecordingReader::Open(rec);
