@@ -89,6 +89,8 @@ void AddPointsAndReprojection(const ReconstructionResult& result, nlohmann::json
   r["observations"] = result.observations;
   r["outlier_observations"] = result.outlier_observations;  // tag views left out of the adjustment
   r["tags_remapped"] = result.tags_remapped;                // learned tags mapped again while running
+  // The corners' errors as scale^2 C + floor^2 against the detector's covariance C (weighted corners).
+  r["corner_noise"] = {{"scale", result.corner_noise.scale}, {"floor_px", result.corner_noise.floor_px}};
   double sum_sq = result.reprojection_rms_px * result.reprojection_rms_px * result.observations;
   double feature_sum_sq = 0;
   size_t count = static_cast<size_t>(result.observations), feature_count = 0;

@@ -47,8 +47,14 @@ void AddPoseBlock(ceres::Problem* problem, PoseParams* pose) {
 
 // Adds the residual blocks of one observation; returns how many.
 // `world_from_tag`: the learned tag's parameter block (unused for a known tag).
+const std::array<Eigen::Matrix2d, 4> kEqualWeights = {Eigen::Matrix2d::Identity(), Eigen::Matrix2d::Identity(),
+                                                     Eigen::Matrix2d::Identity(), Eigen::Matrix2d::Identity()};
+
+// `weighted`: each corner whitened by the observation's weights (the edge
+// fit's covariance), else every corner counts the same.
 int AddTagResiduals(ceres::Problem* problem, PoseParams* cam_from_world, const TagObservation& obs, const MapTag& tag,
-                    PoseParams* world_from_tag, double fx, double fy, double huber_px) {
+                    PoseParams* world_from_tag, double fx, double fy, double huber_px, bool weighted) {
+  const std::array<Eigen::Matrix2d, 4>& weights = weighted ? obs.weight_undistorted : kEqualWeights;
   ceres::LossFunction* loss = SharedLoss(huber_px);
   // A whole tag's block holds four corners: its squared error is ~4 times a
   // corner's, so its robust scale is twice a corner's.
@@ -56,12 +62,12 @@ int AddTagResiduals(ceres::Problem* problem, PoseParams* cam_from_world, const T
   if (tag.known) {
     for (int k = 0; k < 4; ++k) {
       problem->AddResidualBlock(
-          FixedPointReprojectionError::Create(obs.normalized[k], tag.known_corners[k], fx, fy, obs.weight_undistorted[k]),
+          FixedPointReprojectionError::Create(obs.normalized[k], tag.known_corners[k], fx, fy, weights[k]),
           loss, cam_from_world->data);
     }
     return 4;
   }
-  problem->AddResidualBlock(TagReprojectionError::Create(obs.normalized, tag.size_m, fx, fy, obs.weight_undistorted),
+  problem->AddResidualBlock(TagReprojectionError::Create(obs.normalized, tag.size_m, fx, fy, weights),
                             tag_loss, cam_from_world->data, world_from_tag->data);
   return 1;
 }
@@ -129,8 +135,10 @@ void SlidingWindowBundleAdjuster::AddObservation(Keyframe* keyframe, const TagOb
       if (tag.anchor) problem_->SetParameterBlockConstant(learned->world_from_tag.data);
     }
   }
+  // Unweighted: the live survey's decisions (which tags to map, which
+  // views are outliers) are taken on equal votes (BundleAdjusterOptions).
   AddTagResiduals(problem_.get(), &keyframe->cam_from_world, obs, tag, learned ? &learned->world_from_tag : nullptr,
-                  fx_, fy_, options_.huber_px);
+                  fx_, fy_, options_.huber_px, /*weighted=*/false);
   ++residuals_per_tag_[tag.id];  // views of the tag in the window
   keyframe->in_problem.push_back(tag.id);
 }
@@ -300,7 +308,7 @@ std::array<double, 6> IntrinsicsBlock(double fx, double fy, const CameraModel* r
 // through `intrinsics` when they are adjusted (else null). Returns the
 // free parameters added.
 int AddTargetResiduals(ceres::Problem* problem, const std::vector<FrameState*>& frames, std::map<TagId, MapTag>* tags,
-                       double fx, double fy, double huber_px, double* intrinsics) {
+                       double fx, double fy, double huber_px, bool weighted, double* intrinsics) {
   int free_parameters = 0;
   std::map<TagId, bool> added;
   for (FrameState* frame : frames) {
@@ -324,17 +332,19 @@ int AddTargetResiduals(ceres::Problem* problem, const std::vector<FrameState*>& 
         free_parameters += 6;
       }
       if (!intrinsics) {
-        residuals += AddTagResiduals(problem, &frame->cam_from_world, obs, tag, &tag.world_from_tag, fx, fy, huber_px);
+        residuals += AddTagResiduals(problem, &frame->cam_from_world, obs, tag, &tag.world_from_tag, fx, fy, huber_px,
+                                     weighted);
         continue;
       }
+      const std::array<Eigen::Matrix2d, 4>& weights = weighted ? obs.weight_pixels : kEqualWeights;
       if (tag.known) {
         for (int k = 0; k < 4; ++k) {
           problem->AddResidualBlock(
-              FixedPointPixelReprojectionError::Create(obs.pixels[k], tag.known_corners[k], obs.weight_pixels[k]),
+              FixedPointPixelReprojectionError::Create(obs.pixels[k], tag.known_corners[k], weights[k]),
               SharedLoss(huber_px), frame->cam_from_world.data, intrinsics);
         }
       } else {
-        problem->AddResidualBlock(TagPixelReprojectionError::Create(obs.pixels, tag.size_m, obs.weight_pixels),
+        problem->AddResidualBlock(TagPixelReprojectionError::Create(obs.pixels, tag.size_m, weights),
                                   SharedLoss(2 * huber_px), frame->cam_from_world.data, tag.world_from_tag.data,
                                   intrinsics);
       }
@@ -373,7 +383,8 @@ GlobalAdjustmentSummary AdjustGlobally(const std::vector<FrameState*>& frames, s
   ceres::Problem problem(ProblemOptions());
   std::array<double, 6> intrinsics = IntrinsicsBlock(fx, fy, refine_camera);
   double* adjusted_intrinsics = refine_camera ? intrinsics.data() : nullptr;
-  int free_parameters = AddTargetResiduals(&problem, frames, tags, fx, fy, options.huber_px, adjusted_intrinsics);
+  int free_parameters = AddTargetResiduals(&problem, frames, tags, fx, fy, options.huber_px, options.weight_corners,
+                                           adjusted_intrinsics);
   // The targets' residuals come first: their spread is the variance the covariance is scaled by.
   const int target_residuals = problem.NumResiduals();
   if (points && points->points) AddPointResiduals(&problem, frames, *points, fx, fy, adjusted_intrinsics);

@@ -70,7 +70,11 @@ Reconstructor::Reconstructor(const CameraModel& camera, const TargetConfig& targ
       options_(options),
       fx_(camera.fx),
       fy_(camera.fy),
-      window_(std::make_unique<SlidingWindowBundleAdjuster>(options.ba, camera.fx, camera.fy)) {}
+      window_(std::make_unique<SlidingWindowBundleAdjuster>(options.ba, camera.fx, camera.fy)) {
+  // The final adjustments (and the one with the points) weight the corners;
+  // the first one, which the outliers are chosen after, does not.
+  options_.ba.weight_corners = options.weight_corners;
+}
 
 Reconstructor::~Reconstructor() = default;
 
@@ -90,10 +94,7 @@ FrameState& Reconstructor::MakeFrameState(const DetectionSet& detections) {
     TagObservation obs;
     obs.id = d.id;
     obs.pixels = d.corners;
-    if (options_.weight_corners) {
-      SetCornerWeights(d.corner_covariance, camera_, options_.corner_sigma_reference_px, options_.corner_sigma_floor_px,
-                       &obs);
-    }
+    obs.corner_covariance = d.corner_covariance;
     frame.tags.push_back(obs);
     pixels.insert(pixels.end(), d.corners.begin(), d.corners.end());
   }
@@ -785,6 +786,7 @@ void Reconstructor::AdjustFirstAndRetry(std::vector<FrameState*>* registered) {
   }
   BundleAdjusterOptions first = options_.ba;
   first.compute_covariance = false;
+  first.weight_corners = false;
   AdjustGlobally(*registered, &tags_, fx_, fy_, first);
   for (auto& frame : frames_) {
     if (frame.registered || frame.tags.empty()) continue;
@@ -794,8 +796,96 @@ void Reconstructor::AdjustFirstAndRetry(std::vector<FrameState*>* registered) {
   }
 }
 
+// The corners' errors against the detector's covariance C, as
+// scale^2 C + floor^2 (a lens or a print the model does not know adds the
+// floor; an edge fit optimistic by a factor the scale), from the residuals
+// of the unweighted adjustment and its inliers. The corners are binned by
+// their predicted variance; each bin's robust residual variance (median of
+// the squared 2D errors over 2 ln 2, corrected for the redundancy) is
+// fitted as a line in the bin's predicted variance, both terms >= 0.
+CornerNoiseModel Reconstructor::EstimateCornerNoise(const std::vector<FrameState*>& registered) const {
+  std::vector<std::pair<double, double>> variance_and_squared_error;
+  int parameters = 0, corners_used = 0;
+  for (const FrameState* frame : registered) {
+    const Rigid3d cam_from_world = frame->cam_from_world.ToRigid();
+    bool used = false;
+    for (const TagObservation& obs : frame->tags) {
+      auto it = tags_.find(obs.id);
+      if (it == tags_.end() || obs.outlier) continue;
+      used = true;
+      const TagCorners corners = it->second.CornersInWorld();
+      for (int k = 0; k < 4; ++k) {
+        ++corners_used;
+        if (!(obs.corner_covariance[k].determinant() > 0)) continue;
+        const Eigen::Vector3d p = cam_from_world * corners[k];
+        const Eigen::Vector2d e = p.hnormalized() - obs.normalized[k];
+        const double squared = fx_ * fx_ * e.x() * e.x() + fy_ * fy_ * e.y() * e.y();
+        variance_and_squared_error.emplace_back(0.5 * obs.corner_covariance[k].trace(), squared);
+      }
+    }
+    parameters += used ? 6 : 0;
+  }
+  for (const auto& [id, tag] : tags_) parameters += tag.known || tag.anchor ? 0 : 6;
+  CornerNoiseModel model;
+  const size_t n = variance_and_squared_error.size();
+  if (n < 64) return model;
+  const double redundancy = std::max(0.1, 1.0 - parameters / (2.0 * corners_used));
+  std::sort(variance_and_squared_error.begin(), variance_and_squared_error.end());
+  const size_t bins = std::clamp<size_t>(n / 100, 4, 16);
+  std::vector<double> x, y;  // per bin: median predicted variance, robust residual variance
+  for (size_t b = 0; b < bins; ++b) {
+    const size_t begin = b * n / bins, end = (b + 1) * n / bins;
+    std::vector<double> squared;
+    for (size_t i = begin; i < end; ++i) squared.push_back(variance_and_squared_error[i].second);
+    std::nth_element(squared.begin(), squared.begin() + squared.size() / 2, squared.end());
+    x.push_back(variance_and_squared_error[(begin + end) / 2].first);
+    y.push_back(squared[squared.size() / 2] / (2 * std::log(2.0)) / redundancy);
+  }
+  // Least squares y = a x + b with a, b >= 0 (a = scale^2, b = floor^2).
+  double sx = 0, sy = 0, sxx = 0, sxy = 0;
+  for (size_t b = 0; b < bins; ++b) {
+    sx += x[b];
+    sy += y[b];
+    sxx += x[b] * x[b];
+    sxy += x[b] * y[b];
+  }
+  const double m = static_cast<double>(bins), det = m * sxx - sx * sx;
+  double a = det > 1e-12 * m * sxx ? (m * sxy - sx * sy) / det : sxy / sxx;
+  double c = det > 1e-12 * m * sxx ? (sy - a * sx) / m : 0.0;
+  if (c < 0) {
+    c = 0;
+    a = sxy / sxx;
+  }
+  if (a < 0) {
+    a = 0;
+    c = sy / m;
+  }
+  model.scale = std::sqrt(a);
+  model.floor_px = std::sqrt(c);
+  return model;
+}
+
+void Reconstructor::SetWeights(const std::vector<FrameState*>& registered, ReconstructionResult* result) {
+  const CornerNoiseModel noise = EstimateCornerNoise(registered);
+  result->corner_noise = noise;
+  // Relative weights need the floor in the covariance's own units. Where
+  // it is 20x a typical corner's sigma the weights would all be ~1: the
+  // covariance says nothing of these errors (scale ~0: a real room whose
+  // lens the model lacks), and every corner counts the same.
+  const double floor_in_c = noise.scale > 0 ? noise.floor_px / noise.scale : INFINITY;
+  if (!(floor_in_c < 20 * options_.corner_sigma_reference_px)) return;
+  const double floor = std::max(options_.corner_sigma_floor_px, floor_in_c);
+  // The reference grows with the floor, so that a typical corner still
+  // weighs ~1 and the robust losses keep their scale in pixels.
+  const double reference = std::hypot(options_.corner_sigma_reference_px, floor);
+  for (FrameState* frame : registered) {
+    for (TagObservation& obs : frame->tags) SetCornerWeights(obs.corner_covariance, camera_, reference, floor, &obs);
+  }
+}
+
 void Reconstructor::AdjustFinally(const std::vector<FrameState*>& registered, ReconstructionResult* result) {
   result->outlier_observations = FlagOutlierObservations(registered);
+  if (options_.weight_corners) SetWeights(registered, result);
   // Intrinsics are refined for the model the calibration estimates (pinhole, k1 k2).
   const bool refine = options_.refine_intrinsics && camera_.kind == CameraModel::Kind::kPinhole &&
                       camera_.distortion.size() <= 5 &&

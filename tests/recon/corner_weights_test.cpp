@@ -1,7 +1,10 @@
 // Each corner weighted by the detector's covariance of it (corner_weights.h):
 // the weight whitens that covariance, through the lens too, and in an
 // adjustment noisy corners that say so count less.
+#include <algorithm>
 #include <cmath>
+#include <map>
+#include <set>
 #include <random>
 
 #include <Eigen/Dense>
@@ -19,6 +22,27 @@ namespace {
 Eigen::Matrix2d Rotated(double angle, double sigma_a, double sigma_b) {
   const Eigen::Matrix2d r = Eigen::Rotation2Dd(angle).toRotationMatrix();
   return r * Eigen::Vector2d(sigma_a * sigma_a, sigma_b * sigma_b).asDiagonal() * r.transpose();
+}
+
+// The exact corners of a 20-frame box walk, for the tests to add their noise to.
+synth::SyntheticScene ExactBoxScene() {
+  synth::SyntheticSceneOptions options;
+  options.frames = 20;
+  options.noise_px = 0.0;
+  return synth::MakeSyntheticBoxScene(options);
+}
+
+ReconstructionResult Reconstruct(const synth::SyntheticScene& scene, const std::vector<DetectionSet>& detections,
+                                 bool weighted) {
+  TargetConfig targets;
+  targets.size_m = synth::SyntheticSceneOptions{}.tag_size_m;
+  ReconstructorOptions recon_options;
+  recon_options.weight_corners = weighted;
+  auto recon = Reconstructor::Create(scene.camera, targets, std::nullopt, recon_options);
+  EXPECT_TRUE(recon.has_value());
+  if (!recon) return {};
+  for (const auto& d : detections) (*recon)->AddFrame(d);
+  return (*recon)->Finish();
 }
 
 TEST(CornerWeights, WeightWhitensTheCovarianceAtTheReference) {
@@ -72,10 +96,7 @@ TEST(CornerWeights, UndistortedWeightCarriesTheCovarianceThroughTheLens) {
 // and the rest's 0.03 px, each with that covariance: weighted, the noisy
 // tags no longer pull the frames' poses and the quiet tags' positions.
 TEST(CornerWeights, NoisyCornersThatSaySoCountLess) {
-  synth::SyntheticSceneOptions options;
-  options.frames = 20;
-  options.noise_px = 0.0;
-  const synth::SyntheticScene scene = synth::MakeSyntheticBoxScene(options);
+  const synth::SyntheticScene scene = ExactBoxScene();
   std::vector<DetectionSet> detections = scene.detections;
   std::mt19937 rng(7);
   std::normal_distribution<double> unit(0.0, 1.0);
@@ -88,16 +109,8 @@ TEST(CornerWeights, NoisyCornersThatSaySoCountLess) {
       }
     }
   }
-  TargetConfig targets;
-  targets.size_m = options.tag_size_m;
   auto quiet_rms = [&](bool weighted) {
-    ReconstructorOptions recon_options;
-    recon_options.weight_corners = weighted;
-    auto recon = Reconstructor::Create(scene.camera, targets, std::nullopt, recon_options);
-    EXPECT_TRUE(recon.has_value());
-    if (!recon) return 1.0;
-    for (const auto& d : detections) (*recon)->AddFrame(d);
-    const ReconstructionResult result = (*recon)->Finish();
+    const ReconstructionResult result = Reconstruct(scene, detections, weighted);
     // The quiet tags only: both runs must place them, the noisy ones differ by design.
     TargetCornerMap quiet_truth, quiet;
     for (const auto& [id, corners] : result.Targets()) {
@@ -113,6 +126,128 @@ TEST(CornerWeights, NoisyCornersThatSaySoCountLess) {
   const double unweighted = quiet_rms(false), weighted = quiet_rms(true);
   std::printf("quiet tags' corner RMS: unweighted %.1f um, weighted %.1f um\n", 1e6 * unweighted, 1e6 * weighted);
   EXPECT_LT(weighted, 0.6 * unweighted);
+}
+
+// A tag that moved half way through the walk, its corners ten times more
+// precise than the others' (weighted at the cap: 100x per squared error).
+// The decisions (which tags are mapped, which views are outliers) are taken
+// on equal votes, weighted or not; the weights change only the final
+// adjustment's values. On the real swatbotics room, weights in the live
+// window mapped a doubtful tag whose heavy views then outvoted three others
+// (docs/recon.md).
+TEST(CornerWeights, WeightsChangeTheValuesNotTheDecisions) {
+  const synth::SyntheticScene scene = ExactBoxScene();
+  std::vector<DetectionSet> detections = scene.detections;
+  std::map<TagId, int> views;
+  for (const DetectionSet& set : detections) {
+    for (const TagDetection& tag : set.tags) ++views[tag.id];
+  }
+  // The tag seen in most frames moves 3.6 cm after the tenth frame.
+  TagId moved = views.begin()->first;
+  for (const auto& [id, n] : views) moved = n > views[moved] ? id : moved;
+  std::mt19937 rng(11);
+  std::normal_distribution<double> unit(0.0, 1.0);
+  int moved_views_after = 0;
+  for (size_t f = 0; f < detections.size(); ++f) {
+    for (TagDetection& tag : detections[f].tags) {
+      const bool heavy = tag.id == moved;
+      const double sigma = heavy ? 0.006 : 0.06;
+      for (int k = 0; k < 4; ++k) {
+        if (heavy && f >= 10) {
+          const Eigen::Vector3d shifted = scene.targets.at(moved)[k] + Eigen::Vector3d(0.03, 0.0, -0.02);
+          tag.corners[k] = scene.camera.Project(scene.cam_from_world[f] * shifted);
+        }
+        tag.corners[k] += sigma * Eigen::Vector2d(unit(rng), unit(rng));
+        tag.corner_covariance[k] = sigma * sigma * Eigen::Matrix2d::Identity();
+      }
+      moved_views_after += heavy && f >= 10;
+    }
+  }
+  ASSERT_GE(moved_views_after, 3);
+  const ReconstructionResult unweighted = Reconstruct(scene, detections, false),
+                             weighted = Reconstruct(scene, detections, true);
+  // Which views each run used: "frame/tag" for every view of a mapped tag kept.
+  auto used = [](const ReconstructionResult& result) {
+    std::set<std::pair<FrameId, TagId>> kept;
+    for (const FrameState& frame : result.frames) {
+      for (const TagObservation& obs : frame.tags) {
+        if (frame.registered && result.tags.count(obs.id) && !obs.outlier) kept.insert({frame.frame, obs.id});
+      }
+    }
+    return kept;
+  };
+  const auto kept_unweighted = used(unweighted), kept_weighted = used(weighted);
+  EXPECT_EQ(kept_unweighted, kept_weighted);
+  int moved_kept = 0;
+  for (const auto& [frame, id] : kept_weighted) moved_kept += id == moved;
+  // The moved tag keeps one of its halves at most.
+  EXPECT_LE(moved_kept, std::max(views[moved] - moved_views_after, moved_views_after));
+  auto others_rms = [&](const ReconstructionResult& result) {
+    TargetCornerMap truth, mapped;
+    for (const auto& [id, corners] : result.Targets()) {
+      if (id != moved && scene.targets.count(id)) {
+        mapped.emplace(id, corners);
+        truth.emplace(id, scene.targets.at(id));
+      }
+    }
+    return eval::CompareWithTruth({}, mapped, {}, truth, true).corner_rms_m;
+  };
+  std::printf("moved tag %d: %d of its %d views kept (%d after the move); views kept: %zu unweighted, %zu weighted; "
+              "the other tags' corner RMS %.1f um unweighted, %.1f um weighted\n",
+              moved, moved_kept, views[moved], moved_views_after, kept_unweighted.size(), kept_weighted.size(),
+              1e6 * others_rms(unweighted), 1e6 * others_rms(weighted));
+  // The same views, the heavy tag's now weighing 100x: the others' corners
+  // no worse than unweighted (by a tenth: one draw of noise).
+  EXPECT_LT(others_rms(weighted), 1.1 * others_rms(unweighted));
+}
+
+// The corners' errors against what the detector says, as scale^2 C +
+// floor^2, measured from the residuals: an honest covariance gives scale 1
+// and no floor, an optimistic edge fit a scale, a lens or a print the model
+// does not know a floor, and errors that do not follow C at all a floor with
+// scale ~0 (the corners then count the same).
+TEST(CornerWeights, TheCornersNoiseAgainstTheirCovarianceIsMeasured) {
+  const synth::SyntheticScene scene = ExactBoxScene();
+  // Each tag says sigma 0.02, 0.04 or 0.08 px (by its id); its corners get
+  // noise of sqrt((scale sigma)^2 + floor^2).
+  auto measured = [&](double scale, double floor) {
+    std::vector<DetectionSet> detections = scene.detections;
+    std::mt19937 rng(5);
+    std::normal_distribution<double> unit(0.0, 1.0);
+    for (DetectionSet& set : detections) {
+      for (TagDetection& tag : set.tags) {
+        const double said = 0.02 * (1 << (tag.id % 3));
+        const double noise = std::hypot(scale * said, floor);
+        for (int k = 0; k < 4; ++k) {
+          tag.corners[k] += noise * Eigen::Vector2d(unit(rng), unit(rng));
+          tag.corner_covariance[k] = said * said * Eigen::Matrix2d::Identity();
+        }
+      }
+    }
+    const CornerNoiseModel model = Reconstruct(scene, detections, true).corner_noise;
+    std::printf("scale %.2f floor %.3f px: measured scale %.3f floor %.4f px\n", scale, floor, model.scale,
+                model.floor_px);
+    return model;
+  };
+  // ~1,400 corners in 14 bins of ~100: each bin's variance is good to ~15 %.
+  // The adjustment that the residuals come from is unweighted, so the noisy
+  // corners' errors reach the precise ones' residuals and the scale comes
+  // out ~10 % high. What the weights use is the floor in the covariance's
+  // units (floor / scale): ~0 for an honest or optimistic covariance (the
+  // weights keep their ratios), several times the largest sigma where the
+  // errors do not follow C (the weights then within 2x of each other).
+  const CornerNoiseModel honest = measured(1.0, 0.0);
+  EXPECT_NEAR(honest.scale, 1.0, 0.15);
+  EXPECT_LT(honest.floor_px / honest.scale, 0.01);
+  const CornerNoiseModel optimistic = measured(2.0, 0.0);
+  EXPECT_NEAR(optimistic.scale, 2.0, 0.3);
+  EXPECT_LT(optimistic.floor_px / optimistic.scale, 0.01);
+  const CornerNoiseModel lens = measured(1.0, 0.1);
+  EXPECT_NEAR(lens.floor_px, 0.1, 0.015);
+  EXPECT_NEAR(lens.floor_px / lens.scale, 0.1, 0.03);
+  const CornerNoiseModel unrelated = measured(0.0, 0.3);
+  EXPECT_NEAR(unrelated.floor_px, 0.3, 0.03);
+  EXPECT_GT(unrelated.floor_px / unrelated.scale, 0.08 * 1.5);
 }
 
 }  // namespace

@@ -39,6 +39,11 @@ struct BundleAdjusterOptions {
   // 2-core machine, no-map p95 4.5-4.9 ms with 1 thread, 4.7-5.9 ms with 2.
   int window_threads = 1;
   bool compute_covariance = true; // of the learned tags, after the global adjustment
+  // Global adjustments: each tag corner whitened by its observation's
+  // weights (TagObservation::weight_*, the edge fit's covariance); off,
+  // every corner counts the same. The window never weights: see
+  // ReconstructorOptions::weight_corners for why.
+  bool weight_corners = false;
   // With the intrinsics adjusted: fy held equal to fx (SquarePixelTie). The
   // reconstructor decides it from the data (Reconstructor::AdjustFinally).
   bool square_pixels = false;

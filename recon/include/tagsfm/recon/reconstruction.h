@@ -38,6 +38,16 @@ struct TagObservation {
                                                     Eigen::Matrix2d::Identity(), Eigen::Matrix2d::Identity()};
   std::array<Eigen::Matrix2d, 4> weight_pixels{Eigen::Matrix2d::Identity(), Eigen::Matrix2d::Identity(),
                                                Eigen::Matrix2d::Identity(), Eigen::Matrix2d::Identity()};
+  // The detector's covariance of each corner in pixels (zero: unknown),
+  // which the weights are made from once the corners' noise floor is known.
+  std::array<Eigen::Matrix2d, 4> corner_covariance{Eigen::Matrix2d::Zero(), Eigen::Matrix2d::Zero(),
+                                                   Eigen::Matrix2d::Zero(), Eigen::Matrix2d::Zero()};
+};
+
+// A corner's error variance as scale^2 C + floor_px^2, C the detector's covariance.
+struct CornerNoiseModel {
+  double scale = 1.0;
+  double floor_px = 0.0;
 };
 
 struct FrameState {
@@ -126,6 +136,9 @@ struct ReconstructionResult {
   double reprojection_rms_px = 0;            // all observations of mapped tags in registered frames
   int observations = 0;
   int outlier_observations = 0;              // tag views left out (TagObservation::outlier)
+  // With weighted corners: the corners' errors against the detector's
+  // covariance, from the residuals (ReconstructorOptions::weight_corners).
+  CornerNoiseModel corner_noise;
   int tags_remapped = 0;                     // learned tags mapped again while running (disagreed with the frames)
   std::map<std::string, int> pose_method_counts;  // "epnp", "sqpnp", "ippe", "fallback", ...
   std::optional<TagId> anchor_tag;           // the tag that fixes the world frame (no known map)

@@ -60,14 +60,19 @@ struct ReconstructorOptions {
   // length when the scale comes from the tags (no scale bars). 2e-4 is a
   // print checked with a calliper; an unchecked office print is ~1e-3.
   double tag_size_sigma_rel = 2e-4;
-  // Each corner's residual weighted by the edge fit's covariance of it
-  // (TagDetection::corner_covariance, plus corner_sigma_floor_px squared),
-  // relative to a corner of corner_sigma_reference_px (a typical one: the
-  // rendered walks' median corner error is 0.028 px), so that robust losses
-  // keep their scale in pixels; its sigma held within 5x of the reference.
-  // Off by default: on rendered walks it helps five of eight, but on the
-  // real swatbotics room it maps a tag the unweighted survey refuses and
-  // bends two others (docs/recon.md).
+  // Each corner's residual weighted by the edge fit's covariance C of it
+  // (TagDetection::corner_covariance) in the final adjustments. Its error is
+  // taken as scale^2 C + floor^2, both measured from the residuals of the
+  // first, unweighted adjustment (result.corner_noise: rendered walks have
+  // a floor of ~0, a real room whose lens the model lacks one 10x the
+  // fit's sigma, and its corners then count nearly the same); the floor is
+  // at least corner_sigma_floor_px. Relative to a corner of
+  // corner_sigma_reference_px plus the floor (a typical one: the rendered
+  // walks' median corner error is 0.028 px), so that robust losses keep
+  // their scale in pixels; its sigma held within 5x of the reference. The
+  // live window and the first adjustment, after which the outliers are
+  // chosen, count every corner the same: weighted, one precise tag that
+  // disagreed with three others outvoted them (docs/recon.md).
   bool weight_corners = false;
   double corner_sigma_reference_px = 0.03;
   double corner_sigma_floor_px = 0.0;
@@ -220,6 +225,9 @@ class Reconstructor {
   // Marks the tag views that disagree with the current poses and map
   // (TagObservation::outlier); returns how many.
   int FlagOutlierObservations(const std::vector<FrameState*>& frames);
+  CornerNoiseModel EstimateCornerNoise(const std::vector<FrameState*>& registered) const;
+  // Each view's corner weights from its covariance and the estimated floor.
+  void SetWeights(const std::vector<FrameState*>& registered, ReconstructionResult* result);
 
   CameraModel camera_;
   TargetConfig targets_;
