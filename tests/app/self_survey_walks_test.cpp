@@ -69,10 +69,11 @@ WalkScore ScoreWalk(const fs::path& dir, int seed, const std::string& lens) {
 // with k1 -0.05 on the even ones, tags printed with one module of white
 // (the default) on six walks and two on seeds 7 and 8.
 // - The map, per walk: the 1/10,000 of the scene after a rigid fit
-//   and scale within 200 ppm. Measured 2026-12-06: 1/10,573 (seed 1: a
-//   floor tag seen in two neighbouring frames, 0.91 mm off at a sigma of
-//   0.83 mm, is 79 % of its mean square) to 1/47,497, geometric mean
-//   1/28,500; scale -5 to +73 ppm. The same seeds all at one module gave
+//   and scale within 200 ppm. Measured 2026-12-06 (corners weighted in the
+//   final adjustments): 1/10,727 (seed 1: a floor tag seen in two
+//   neighbouring frames holds most of its mean square) to 1/52,333,
+//   geometric mean 1/30,200; scale -2 to +86 ppm (unweighted: 1/10,573 to
+//   1/47,497, -5 to +73 ppm). The same seeds all at one module gave
 //   1/18,200 (geometric mean; worst 1/7,425) without the feature points
 //   (`replay --no-features`) and 1/28,000 (worst 1/10,573) with them: the
 //   points' rays hold the poses where few tags are in view.
@@ -81,7 +82,8 @@ WalkScore ScoreWalk(const fs::path& dir, int seed, const std::string& lens) {
 //   renderer prints exactly, so the print term is left out
 //   (tag_size_sigma_rel 0); with the default 200 ppm in every sigma the
 //   spread is about half (conservative by design on exact prints). Measured
-//   2026-12-06: 2,535 pairs, mean -0.25, std 0.81, none beyond 3 sigma
+//   2026-12-06: 2,535 pairs, mean -0.31, std 0.74 (unweighted corners:
+//   -0.25, 0.81), none beyond 3 sigma
 //   (the tags' covariance from the adjustment with the points; the
 //   targets-only one, which knows nothing of the points' rays, gave std
 //   0.66).

@@ -173,11 +173,12 @@ const std::vector<std::pair<int, std::string>> kScaleWalks = {{3, ""}, {8, " --d
 //   views at 2.6-3 m, 0.85-2 mm off at a sigma of 1.2 mm) puts it at -366
 //   ppm; seed 8 -55 ppm. Bound: 1,000 ppm (5x better than the printer).
 // - the lengths between tags, each pair weighted by its sigma (the slope
-//   of E against L, as VDI/VDE 2634 judges scale by lengths): +53 / +54
-//   ppm, at a reported scale sigma of 108 / 58 ppm. That sigma must be
+//   of E against L, as VDI/VDE 2634 judges scale by lengths): +59 / +41
+//   ppm with the corners weighted (unweighted +53 / +54), at a reported
+//   scale sigma of 69 / 56 ppm. That sigma must be
 //   honest: within 3 of it. The issue's 50 ppm is not asserted: measured
 //   just above it on both walks.
-// Measured 2026-12-06 (main after b1d5682), 27 s for both walks.
+// Measured 2026-12-06 (session 26), 27 s for both walks.
 TEST(ScaleBarsSlow, OneBarFixesAPrinterThatPrintsHalfAPercentTooLarge) {
   for (const auto& [seed, lens] : kScaleWalks) {
     testing::TempDir scratch;

@@ -73,7 +73,7 @@ struct ReconstructorOptions {
   // live window and the first adjustment, after which the outliers are
   // chosen, count every corner the same: weighted, one precise tag that
   // disagreed with three others outvoted them (docs/recon.md).
-  bool weight_corners = false;
+  bool weight_corners = true;
   double corner_sigma_reference_px = 0.03;
   double corner_sigma_floor_px = 0.0;
   // The feature points' views are fitted on the targets' poses. When the
