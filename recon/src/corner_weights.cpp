@@ -56,4 +56,45 @@ void SetCornerWeights(const std::array<Eigen::Matrix2d, 4>& covariance_in, const
   }
 }
 
+CornerNoiseModel FitCornerNoise(std::vector<std::pair<double, double>> variance_and_squared_error, double redundancy) {
+  CornerNoiseModel model;
+  const size_t n = variance_and_squared_error.size();
+  if (n < 64 || !(redundancy > 0)) return model;
+  std::sort(variance_and_squared_error.begin(), variance_and_squared_error.end());
+  const size_t bins = std::clamp<size_t>(n / 100, 4, 16);
+  std::vector<double> x, y;  // per bin: median predicted variance, robust residual variance
+  for (size_t b = 0; b < bins; ++b) {
+    const size_t begin = b * n / bins, end = (b + 1) * n / bins;
+    std::vector<double> squared;
+    for (size_t i = begin; i < end; ++i) squared.push_back(variance_and_squared_error[i].second);
+    std::nth_element(squared.begin(), squared.begin() + squared.size() / 2, squared.end());
+    x.push_back(variance_and_squared_error[(begin + end) / 2].first);
+    y.push_back(squared[squared.size() / 2] / (2 * std::log(2.0)) / redundancy);
+  }
+  // Least squares y = a x + c with a, c >= 0 (a = scale^2, c = floor^2).
+  double sx = 0, sy = 0, sxx = 0, sxy = 0;
+  for (size_t b = 0; b < bins; ++b) {
+    sx += x[b];
+    sy += y[b];
+    sxx += x[b] * x[b];
+    sxy += x[b] * y[b];
+  }
+  if (!(sxx > 0)) return model;
+  const double m = static_cast<double>(bins), det = m * sxx - sx * sx;
+  const bool spread = det > 1e-12 * m * sxx;  // else every bin predicts the same: all in the scale
+  double a = spread ? (m * sxy - sx * sy) / det : sxy / sxx;
+  double c = spread ? (sy - a * sx) / m : 0.0;
+  if (c < 0) {
+    c = 0;
+    a = sxy / sxx;
+  }
+  if (a < 0) {
+    a = 0;
+    c = sy / m;
+  }
+  model.scale = std::sqrt(a);
+  model.floor_px = std::sqrt(c);
+  return model;
+}
+
 }  // namespace tagsfm

@@ -796,13 +796,8 @@ void Reconstructor::AdjustFirstAndRetry(std::vector<FrameState*>* registered) {
   }
 }
 
-// The corners' errors against the detector's covariance C, as
-// scale^2 C + floor^2 (a lens or a print the model does not know adds the
-// floor; an edge fit optimistic by a factor the scale), from the residuals
-// of the unweighted adjustment and its inliers. The corners are binned by
-// their predicted variance; each bin's robust residual variance (median of
-// the squared 2D errors over 2 ln 2, corrected for the redundancy) is
-// fitted as a line in the bin's predicted variance, both terms >= 0.
+// The corners' noise against their covariance (FitCornerNoise) from the
+// residuals of the unweighted adjustment and its inliers.
 CornerNoiseModel Reconstructor::EstimateCornerNoise(const std::vector<FrameState*>& registered) const {
   std::vector<std::pair<double, double>> variance_and_squared_error;
   int parameters = 0, corners_used = 0;
@@ -826,43 +821,9 @@ CornerNoiseModel Reconstructor::EstimateCornerNoise(const std::vector<FrameState
     parameters += used ? 6 : 0;
   }
   for (const auto& [id, tag] : tags_) parameters += tag.known || tag.anchor ? 0 : 6;
-  CornerNoiseModel model;
-  const size_t n = variance_and_squared_error.size();
-  if (n < 64) return model;
+  if (corners_used == 0) return {};
   const double redundancy = std::max(0.1, 1.0 - parameters / (2.0 * corners_used));
-  std::sort(variance_and_squared_error.begin(), variance_and_squared_error.end());
-  const size_t bins = std::clamp<size_t>(n / 100, 4, 16);
-  std::vector<double> x, y;  // per bin: median predicted variance, robust residual variance
-  for (size_t b = 0; b < bins; ++b) {
-    const size_t begin = b * n / bins, end = (b + 1) * n / bins;
-    std::vector<double> squared;
-    for (size_t i = begin; i < end; ++i) squared.push_back(variance_and_squared_error[i].second);
-    std::nth_element(squared.begin(), squared.begin() + squared.size() / 2, squared.end());
-    x.push_back(variance_and_squared_error[(begin + end) / 2].first);
-    y.push_back(squared[squared.size() / 2] / (2 * std::log(2.0)) / redundancy);
-  }
-  // Least squares y = a x + b with a, b >= 0 (a = scale^2, b = floor^2).
-  double sx = 0, sy = 0, sxx = 0, sxy = 0;
-  for (size_t b = 0; b < bins; ++b) {
-    sx += x[b];
-    sy += y[b];
-    sxx += x[b] * x[b];
-    sxy += x[b] * y[b];
-  }
-  const double m = static_cast<double>(bins), det = m * sxx - sx * sx;
-  double a = det > 1e-12 * m * sxx ? (m * sxy - sx * sy) / det : sxy / sxx;
-  double c = det > 1e-12 * m * sxx ? (sy - a * sx) / m : 0.0;
-  if (c < 0) {
-    c = 0;
-    a = sxy / sxx;
-  }
-  if (a < 0) {
-    a = 0;
-    c = sy / m;
-  }
-  model.scale = std::sqrt(a);
-  model.floor_px = std::sqrt(c);
-  return model;
+  return FitCornerNoise(std::move(variance_and_squared_error), redundancy);
 }
 
 void Reconstructor::SetWeights(const std::vector<FrameState*>& registered, ReconstructionResult* result) {

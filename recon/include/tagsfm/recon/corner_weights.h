@@ -6,6 +6,8 @@
 // a corner at the reference sigma keeps the weight of the unweighted
 // adjustment, so robust losses keep their scale in pixels.
 #include <array>
+#include <utility>
+#include <vector>
 
 #include <Eigen/Core>
 
@@ -28,5 +30,17 @@ Eigen::Matrix2d CornerWeight(const Eigen::Matrix2d& covariance, double reference
 // what the edge fit's covariance cannot see in any corner.
 void SetCornerWeights(const std::array<Eigen::Matrix2d, 4>& covariance, const CameraModel& camera,
                       double reference_sigma_px, double floor_sigma_px, TagObservation* obs);
+
+// The corners' errors against their covariance C, as scale^2 C + floor^2
+// (a lens or a print the model does not know adds the floor; an edge fit
+// optimistic by a factor the scale). `variance_and_squared_error`: each
+// corner's predicted per-axis variance (trace C / 2, px^2) and squared 2D
+// residual (px^2); `redundancy`: the residuals' share of the errors'
+// variance (1 - parameters / observations). The corners are binned by
+// their predicted variance; each bin's robust variance (median squared 2D
+// residual over 2 ln 2, divided by the redundancy) is fitted as a line in
+// the bin's predicted variance, both terms >= 0. Fewer than 64 corners:
+// scale 1, no floor.
+CornerNoiseModel FitCornerNoise(std::vector<std::pair<double, double>> variance_and_squared_error, double redundancy);
 
 }  // namespace tagsfm
