@@ -45,11 +45,11 @@ void AddPoseBlock(ceres::Problem* problem, PoseParams* pose) {
   problem->AddParameterBlock(pose->data, 7, SharedPoseManifold());
 }
 
-// Adds the residual blocks of one observation; returns how many.
-// `world_from_tag`: the learned tag's parameter block (unused for a known tag).
 const std::array<Eigen::Matrix2d, 4> kEqualWeights = {Eigen::Matrix2d::Identity(), Eigen::Matrix2d::Identity(),
                                                      Eigen::Matrix2d::Identity(), Eigen::Matrix2d::Identity()};
 
+// Adds the residual blocks of one observation; returns how many.
+// `world_from_tag`: the learned tag's parameter block (unused for a known tag).
 // `weighted`: each corner whitened by the observation's weights (the edge
 // fit's covariance), else every corner counts the same.
 int AddTagResiduals(ceres::Problem* problem, PoseParams* cam_from_world, const TagObservation& obs, const MapTag& tag,

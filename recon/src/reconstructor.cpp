@@ -461,6 +461,17 @@ void Reconstructor::RememberNoise(double sigma_px) {
   corner_noise_px_ = sorted[sorted.size() / 2];
 }
 
+std::array<Eigen::Vector2d, 4> Reconstructor::NormalizedCornerErrors(const Rigid3d& cam_from_world, const MapTag& tag,
+                                                                     const TagObservation& obs) {
+  const TagCorners corners = tag.CornersInWorld();
+  std::array<Eigen::Vector2d, 4> errors;
+  for (int k = 0; k < 4; ++k) {
+    const Eigen::Vector3d p = cam_from_world * corners[k];
+    errors[k] = p.z() > 0 ? Eigen::Vector2d(p.hnormalized() - obs.normalized[k]) : Eigen::Vector2d::Constant(INFINITY);
+  }
+  return errors;
+}
+
 int Reconstructor::FlagOutlierObservations(const std::vector<FrameState*>& frames) {
   // Against the current poses and map: a tag view whose worst corner is off
   // by more than outlier_sigmas robust sigmas of all corners (and at least
@@ -473,12 +484,9 @@ int Reconstructor::FlagOutlierObservations(const std::vector<FrameState*>& frame
       obs.outlier = false;
       auto it = tags_.find(obs.id);
       if (it == tags_.end()) continue;
-      const TagCorners corners = it->second.CornersInWorld();
       double max_error = 0;
-      for (int k = 0; k < 4; ++k) {
-        const Eigen::Vector3d p = cam_from_world * corners[k];
-        const Eigen::Vector2d e = p.hnormalized() - obs.normalized[k];
-        const double error = p.z() > 0 ? std::hypot(fx_ * e.x(), fy_ * e.y()) : INFINITY;
+      for (const Eigen::Vector2d& e : NormalizedCornerErrors(cam_from_world, it->second, obs)) {
+        const double error = std::hypot(fx_ * e.x(), fy_ * e.y());
         errors.push_back(error);
         max_error = std::max(max_error, error);
       }
@@ -808,12 +816,11 @@ CornerNoiseModel Reconstructor::EstimateCornerNoise(const std::vector<FrameState
       auto it = tags_.find(obs.id);
       if (it == tags_.end() || obs.outlier) continue;
       used = true;
-      const TagCorners corners = it->second.CornersInWorld();
+      const std::array<Eigen::Vector2d, 4> errors = NormalizedCornerErrors(cam_from_world, it->second, obs);
       for (int k = 0; k < 4; ++k) {
         ++corners_used;
         if (!(obs.corner_covariance[k].determinant() > 0)) continue;
-        const Eigen::Vector3d p = cam_from_world * corners[k];
-        const Eigen::Vector2d e = p.hnormalized() - obs.normalized[k];
+        const Eigen::Vector2d& e = errors[k];
         const double squared = fx_ * fx_ * e.x() * e.x() + fy_ * fy_ * e.y() * e.y();
         variance_and_squared_error.emplace_back(0.5 * obs.corner_covariance[k].trace(), squared);
       }

@@ -4,6 +4,7 @@
 // pose (or why it has none); Finish runs the final global adjustment and
 // hands back the whole result. No I/O inside: `replay` and the live daemon
 // both drive it with plain values.
+#include <array>
 #include <deque>
 #include <functional>
 #include <map>
@@ -222,6 +223,10 @@ class Reconstructor {
   // A new tag's fit is accepted within this RMS: the fixed limit, or more
   // when the measured corner noise asks for it.
   double TagInitLimitPx() const;
+  // Each corner of `obs` minus `tag`'s projection from `cam_from_world`, in
+  // normalised coordinates; infinite for a corner behind the camera.
+  static std::array<Eigen::Vector2d, 4> NormalizedCornerErrors(const Rigid3d& cam_from_world, const MapTag& tag,
+                                                               const TagObservation& obs);
   // Marks the tag views that disagree with the current poses and map
   // (TagObservation::outlier); returns how many.
   int FlagOutlierObservations(const std::vector<FrameState*>& frames);
