@@ -2,6 +2,7 @@
 // latencies, the camera) for people and for `tagsfm evaluate`.
 #include <algorithm>
 #include <cmath>
+#include <map>
 
 #include <nlohmann/json.hpp>
 
@@ -78,6 +79,47 @@ void AddFramesAndTargets(const ReconstructionResult& result, const RunStats& sta
   r["targets_seen"] = seen.size();
   r["targets_mapped"] = result.tags.size();
   r["unmapped_targets"] = unmapped;  // seen but not mapped, with why
+}
+
+// Each mapped target as a surveyor checks it: its rays (views in the
+// adjustment), the views left out, its corners' reprojection RMS and its
+// centre's sigma per world axis. That sigma is the final adjustment's,
+// relative to the datum (the anchor tag at the origin, or a known map,
+// both held fixed), plus what the images cannot see: the scale's sigma
+// times the centre's distance from the anchor, as `measure` adds it to
+// distances. A known map fixes the scale itself, so it adds none.
+nlohmann::json TargetsJson(const ReconstructionResult& result) {
+  const bool known_map = std::any_of(result.tags.begin(), result.tags.end(), [](const auto& t) { return t.second.known; });
+  const double scale_sigma_rel = known_map ? 0.0 : result.scale.sigma_rel;
+  std::map<TagId, Eigen::Vector3d> centre_sigma;
+  if (result.covariance) {
+    const TagCovariance& c = *result.covariance;
+    for (size_t i = 0; i < c.ids.size(); ++i) {
+      const auto tag = result.tags.find(c.ids[i]);
+      if (tag == result.tags.end()) continue;
+      const TagCorners corners = tag->second.CornersInWorld();
+      const Eigen::Vector3d centre = 0.25 * (corners[0] + corners[1] + corners[2] + corners[3]);
+      const Eigen::Matrix3d position = c.covariance.block<3, 3>(6 * i + 3, 6 * i + 3) +
+                                       scale_sigma_rel * scale_sigma_rel * centre * centre.transpose();
+      centre_sigma[c.ids[i]] = position.diagonal().cwiseMax(0.0).cwiseSqrt();
+    }
+  }
+  nlohmann::json targets = nlohmann::json::array();
+  for (const auto& [id, tag] : result.tags) {
+    const auto stats = result.target_stats.find(id);
+    const TargetStats s = stats == result.target_stats.end() ? TargetStats{} : stats->second;
+    nlohmann::json t = {{"tag", id}, {"known", tag.known}, {"anchor", tag.anchor},
+                        {"size_m", tag.size_m}, {"views", s.track_length},
+                        {"outlier_views", s.outlier_views}, {"rms_px", s.rms_px}};
+    if (auto sigma = centre_sigma.find(id); sigma != centre_sigma.end()) {
+      const Eigen::Vector3d mm = 1e3 * sigma->second;
+      t["sigma_mm"] = {mm.x(), mm.y(), mm.z()};
+    } else {
+      t["sigma_mm"] = nullptr;  // held fixed (known map, the anchor) or no covariance
+    }
+    targets.push_back(std::move(t));
+  }
+  return targets;
 }
 
 // Points, observations and the reprojection RMS of the target corners, the
@@ -173,6 +215,7 @@ Status WriteReport(const std::filesystem::path& path, const ReconstructionResult
   nlohmann::json report;
   AddFramesAndTargets(result, stats, &report);
   report["scale"] = ScaleJson(result.scale);
+  report["targets"] = TargetsJson(result);
   AddPointsAndReprojection(result, &report);
   AddRunStatistics(stats, &report);
   AddAdjustment(result, &report);

@@ -1093,11 +1093,16 @@ void Reconstructor::CollectReprojectionStatistics(const std::vector<FrameState*>
   double sum_all = 0;
   int n_all = 0;
   std::map<TagId, std::pair<double, int>> per_tag;
+  std::map<TagId, int> outliers;
   for (FrameState* frame : registered) {
     const Rigid3d cam_from_world = frame->cam_from_world.ToRigid();
     for (const auto& obs : frame->tags) {
       auto it = tags_.find(obs.id);
-      if (it == tags_.end() || obs.outlier) continue;
+      if (it == tags_.end()) continue;
+      if (obs.outlier) {
+        ++outliers[obs.id];
+        continue;
+      }
       const TagCorners corners = it->second.CornersInWorld();
       auto& [sum, count] = per_tag[obs.id];
       for (int k = 0; k < 4; ++k) {
@@ -1116,6 +1121,7 @@ void Reconstructor::CollectReprojectionStatistics(const std::vector<FrameState*>
       stats.track_length = it->second.second;
       stats.rms_px = std::sqrt(it->second.first / (4.0 * it->second.second));
     }
+    if (auto it = outliers.find(id); it != outliers.end()) stats.outlier_views = it->second;
     result->target_stats[id] = stats;
   }
   result->reprojection_rms_px = n_all ? std::sqrt(sum_all / n_all) : 0.0;

@@ -12,6 +12,7 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include "json_file.h"
 #include "tagsfm/core/csv_formats.h"
 #include "tagsfm/core/file_util.h"
 #include "tagsfm/eval/scene_geometry.h"
@@ -27,6 +28,7 @@ namespace fs = std::filesystem;
 using testing::RecordingsDir;
 using testing::TagsfmExe;
 using testing::TempDir;
+using testing::ReadJsonFile;
 using testing::ReadText;
 
 struct CommandRun {
@@ -49,12 +51,6 @@ CommandRun Tagsfm(const std::string& args, const fs::path& scratch) {
   return run;
 }
 
-nlohmann::json ReadJson(const fs::path& path) {
-  auto text = ReadFileToString(path);
-  EXPECT_TRUE(text.has_value()) << path;
-  return text ? nlohmann::json::parse(*text) : nlohmann::json();
-}
-
 fs::path Box() { return RecordingsDir() / "box_small"; }
 
 void ExpectContractFiles(const fs::path& out) {
@@ -62,7 +58,7 @@ void ExpectContractFiles(const fs::path& out) {
                            "colmap/images.txt", "colmap/points3D.txt", "preview.png"}) {
     EXPECT_TRUE(fs::exists(out / name)) << name;
   }
-  const nlohmann::json report = ReadJson(out / "report.json");
+  const nlohmann::json report = ReadJsonFile(out / "report.json");
   for (const char* key : {"frames", "registered_frames", "frames_skipped", "targets_seen", "points",
                           "reprojection_rms_px", "target_reprojection_rms_px", "runtime_s", "frame_latency_ms",
                           "peak_rss_mb", "pose_methods", "unregistered_frames"}) {
@@ -101,7 +97,7 @@ TEST(ReplayBoxSlow, KnownMapPosesMatchTheTruth) {
   EXPECT_LT(c.rotation_median_deg, 0.03);
   EXPECT_LT(c.rotation_max_deg, 0.4);
   EXPECT_LT(c.centre_median_m, 0.001);
-  const nlohmann::json report = ReadJson(out / "report.json");
+  const nlohmann::json report = ReadJsonFile(out / "report.json");
   EXPECT_LT(report["target_reprojection_rms_px"].get<double>(), 0.3);  // the bound
 }
 
@@ -122,7 +118,7 @@ TEST(ReplayBoxSlow, FeaturePointsLieOnTheTrueSurfaces) {
                                 scratch.path());
   ASSERT_EQ(run.exit_code, 0) << run.err;
   ExpectContractFiles(out);
-  const nlohmann::json report = ReadJson(out / "report.json");
+  const nlohmann::json report = ReadJsonFile(out / "report.json");
   EXPECT_GE(report["feature_points"].get<int>(), 2000);
   EXPECT_EQ(report["points"].get<int>(), report["feature_points"].get<int>() + 4 * report["targets_mapped"].get<int>());
   EXPECT_LT(report["feature_reprojection_rms_px"].get<double>(), 0.5);
@@ -142,7 +138,7 @@ TEST(ReplayBoxSlow, FeaturePointsLieOnTheTrueSurfaces) {
   EXPECT_GE(report["feature_points"].get<int>(), t["final_pass"]["points"].get<int>() * 9 / 10);
   const CommandRun evaluate = Tagsfm("evaluate " + out.string() + " " + Box().string(), scratch.path());
   ASSERT_EQ(evaluate.exit_code, 0) << evaluate.err;
-  const nlohmann::json e = ReadJson(scratch.path() / "stdout.txt");
+  const nlohmann::json e = ReadJsonFile(scratch.path() / "stdout.txt");
   const nlohmann::json& d = e["as_is"]["cloud_distance_m"];  // the known map puts it in the truth's frame
   EXPECT_EQ(d["count"].get<int>(), report["points"].get<int>());
   EXPECT_LT(d["median"].get<double>(), 0.004) << d.dump();
@@ -171,7 +167,7 @@ TEST(ReplayBoxSlow, FeaturePointsLieOnTheTrueSurfaces) {
                                   std::to_string(second->first) + " --json",
                               scratch.path());
   ASSERT_EQ(m.exit_code, 0) << m.err;
-  const nlohmann::json mj = ReadJson(scratch.path() / "stdout.txt");
+  const nlohmann::json mj = ReadJsonFile(scratch.path() / "stdout.txt");
   EXPECT_NEAR(mj["distance_m"].get<double>(), (first->second.position - second->second.position).norm(), 1e-12);
   EXPECT_GT(mj["sigma_m"].get<double>(), 0.0);
   // Its sigma: the two points' covariances along the line, and the print
@@ -189,7 +185,7 @@ TEST(ReplayBoxSlow, FeaturePointsLieOnTheTrueSurfaces) {
   // --no-features: targets alone.
   const fs::path targets_only = scratch.path() / "targets_only";
   ASSERT_EQ(Tagsfm("replay " + Box().string() + " --out " + targets_only.string() + " --no-features", scratch.path()).exit_code, 0);
-  const nlohmann::json r = ReadJson(targets_only / "report.json");
+  const nlohmann::json r = ReadJsonFile(targets_only / "report.json");
   EXPECT_EQ(r["feature_points"].get<int>(), 0);
   EXPECT_EQ(r["points"].get<int>(), 4 * r["targets_mapped"].get<int>());
 }
@@ -218,9 +214,9 @@ TEST(ReplayBoxSlow, TiePointsGiveTheCloudOfEveryPoint) {
     const fs::path out = scratch.path() / name;
     const CommandRun run = Tagsfm("replay " + Box().string() + " --out " + out.string() + config, scratch.path());
     EXPECT_EQ(run.exit_code, 0) << run.err;
-    c.report = ReadJson(out / "report.json");
+    c.report = ReadJsonFile(out / "report.json");
     EXPECT_EQ(Tagsfm("evaluate " + out.string() + " " + Box().string(), scratch.path()).exit_code, 0);
-    c.rigid = ReadJson(scratch.path() / "stdout.txt")["rigid"]["feature_points"];
+    c.rigid = ReadJsonFile(scratch.path() / "stdout.txt")["rigid"]["feature_points"];
     auto points = ReadFeaturePointsCsv(out / "features.csv");
     EXPECT_TRUE(points.has_value());
     if (points) c.points = std::move(*points);
@@ -267,15 +263,50 @@ TEST(ReplayBoxSlow, WithoutMapTargetsAreMetricAndMatchTheTruth) {
   EXPECT_GE(c.targets_compared, 12);
   EXPECT_LT(c.corner_rms_m, c.scene_size_m / 1500);
   EXPECT_NEAR(c.scale, 1.0, 0.003);
-  const nlohmann::json report = ReadJson(out / "report.json");
+  const nlohmann::json report = ReadJsonFile(out / "report.json");
   EXPECT_LT(report["target_reprojection_rms_px"].get<double>(), 0.3);
   EXPECT_TRUE(fs::exists(out / "targets_cov.csv"));
   // measure: a tag's diagonal is exact by construction (square of known size).
   const std::string anchor = std::to_string(report["anchor_tag"].get<int>());
   const CommandRun measure = Tagsfm("measure " + out.string() + " " + anchor + ":0 " + anchor + ":2 --json", scratch.path());
   ASSERT_EQ(measure.exit_code, 0) << measure.err;
-  const nlohmann::json m = ReadJson(scratch.path() / "stdout.txt");
+  const nlohmann::json m = ReadJsonFile(scratch.path() / "stdout.txt");
   EXPECT_NEAR(m["distance_m"].get<double>(), 0.06 * std::sqrt(2.0), 1e-9);
+
+  // The per-target table adds up to the run's totals, and its centre sigma
+  // is the covariance's translation block with the scale's part: the
+  // anchor's distance to the best-seen other tag, as `measure` gives it, has
+  // a variance no larger than that tag's sigma_mm squared summed
+  // (u^T S u <= trace S), and no smaller than the scale's part alone.
+  const nlohmann::json& targets = report["targets"];
+  ASSERT_EQ(targets.size(), report["targets_mapped"].get<size_t>());
+  int views = 0, outliers = 0;
+  const nlohmann::json* best = nullptr;
+  for (const nlohmann::json& t : targets) {
+    views += t["views"].get<int>();
+    outliers += t["outlier_views"].get<int>();
+    EXPECT_LT(t["rms_px"].get<double>(), 1.0) << t.dump();
+    if (t["tag"].get<int>() == report["anchor_tag"].get<int>()) {
+      EXPECT_TRUE(t["anchor"].get<bool>());
+      EXPECT_TRUE(t["sigma_mm"].is_null()) << "the anchor is held fixed";
+      continue;
+    }
+    ASSERT_EQ(t["sigma_mm"].size(), 3u) << t.dump();
+    if (!best || t["views"].get<int>() > (*best)["views"].get<int>()) best = &t;
+  }
+  EXPECT_EQ(4 * views, report["observations"].get<int>());
+  EXPECT_EQ(outliers, report["outlier_observations"].get<int>());
+  ASSERT_NE(best, nullptr);
+  const CommandRun pair =
+      Tagsfm("measure " + out.string() + " " + anchor + " " + (*best)["tag"].dump() + " --json", scratch.path());
+  ASSERT_EQ(pair.exit_code, 0) << pair.err;
+  const nlohmann::json d = ReadJsonFile(scratch.path() / "stdout.txt");
+  const double scale_part = report["scale"]["sigma_rel"].get<double>() * d["distance_m"].get<double>();
+  const double variance = std::pow(d["sigma_m"].get<double>(), 2);
+  double trace = 0;
+  for (const nlohmann::json& s : (*best)["sigma_mm"]) trace += std::pow(1e-3 * s.get<double>(), 2);
+  EXPECT_GT(variance, scale_part * scale_part * (1 + 1e-6));
+  EXPECT_LE(variance, trace * (1 + 1e-6)) << (*best).dump();
 }
 
 TEST(ReplayBoxSlow, UnreadableFrameIsSkippedAndCounted) {
@@ -296,7 +327,7 @@ TEST(ReplayBoxSlow, UnreadableFrameIsSkippedAndCounted) {
   const CommandRun run = Tagsfm("replay " + rec.string() + " --out " + out.string(), scratch.path());
   ASSERT_EQ(run.exit_code, 0) << run.err;
   EXPECT_NE(run.err.find("skipping frame 5"), std::string::npos) << run.err;
-  const nlohmann::json report = ReadJson(out / "report.json");
+  const nlohmann::json report = ReadJsonFile(out / "report.json");
   EXPECT_EQ(report["frames_skipped"].get<int>(), 1);
   EXPECT_EQ(report["frames"].get<int>(), 20);
   EXPECT_EQ(report["registered_frames"].get<int>(), 19);
@@ -324,7 +355,7 @@ TEST(ReplayCommand, TagSearchModesAgreeOnSparseViewsAndABadModeIsNamed) {
     const CommandRun run = Tagsfm("replay " + Box().string() + " --no-features --tag-search " + mode + " --out " + out.string(),
                                   scratch.path());
     ASSERT_EQ(run.exit_code, 0) << run.err;
-    const auto report = nlohmann::json::parse(ReadText(out / "report.json"));
+    const auto report = ReadJsonFile(out / "report.json");
     EXPECT_EQ(report["tag_search"]["mode"], mode);
     auto read = ReadPosesCsv(out / "poses.csv");
     ASSERT_TRUE(read.has_value());

@@ -116,8 +116,9 @@ struct MapScale {
 
 // Per-target figures of the result.
 struct TargetStats {
-  int track_length = 0;        // frames that saw the tag
-  double rms_px = 0;           // its corners' reprojection RMS over those frames
+  int track_length = 0;        // registered frames whose view of the tag is in the adjustment
+  int outlier_views = 0;       // registered frames whose view of it was left out (TagObservation::outlier)
+  double rms_px = 0;           // its corners' reprojection RMS over the track's frames
   bool known = false;
 };
 
