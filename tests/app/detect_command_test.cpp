@@ -13,6 +13,7 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include "json_file.h"
 #include "run_command.h"
 #include "tagsfm/capture/recording.h"
 #include "tagsfm/core/csv_formats.h"
@@ -21,6 +22,7 @@
 namespace tagsfm {
 namespace {
 
+using testing::ReadJsonFile;
 using testing::ReadText;
 using testing::RunCommand;
 using testing::TempDir;
@@ -44,9 +46,9 @@ TEST(DetectCommand, SmallTagPassReadsTheSmallTagsOfARealPhotoByDefault) {
   ASSERT_EQ(RunCommand(base + " --no-small-tags", tmp.path() / "plain.json"), 0) << ReadText(tmp.path() / "plain.json");
   ASSERT_EQ(RunCommand(base, tmp.path() / "default.json"), 0);
   ASSERT_EQ(RunCommand(base + " --small-tags", tmp.path() / "small.json"), 0);
-  const auto plain = nlohmann::json::parse(ReadText(tmp.path() / "plain.json"));
-  const auto by_default = nlohmann::json::parse(ReadText(tmp.path() / "default.json"));
-  const auto small = nlohmann::json::parse(ReadText(tmp.path() / "small.json"));
+  const auto plain = ReadJsonFile(tmp.path() / "plain.json");
+  const auto by_default = ReadJsonFile(tmp.path() / "default.json");
+  const auto small = ReadJsonFile(tmp.path() / "small.json");
   ASSERT_EQ(plain.size(), 1u);
   ASSERT_EQ(by_default.size(), 1u);
   ASSERT_EQ(small.size(), 1u);
@@ -73,7 +75,7 @@ TEST(DetectCommand, AnUnreadableImageIsNamedAndTheOthersAreReported) {
   EXPECT_NE(WEXITSTATUS(status), 0);
   const std::string err = ReadText(tmp.path() / "err.txt");
   EXPECT_NE(err.find("truncated.png"), std::string::npos) << err;
-  const auto out = nlohmann::json::parse(ReadText(tmp.path() / "out.json"));
+  const auto out = ReadJsonFile(tmp.path() / "out.json");
   ASSERT_EQ(out.size(), 1u);
   EXPECT_EQ(out[0]["file"], good.string());
   EXPECT_GT(out[0]["tags"].size(), 3u);
@@ -134,8 +136,8 @@ TEST(DetectCommand, CameraFileGivesTheFitTheLens) {
   ASSERT_EQ(RunCommand(base, tmp.path() / "plain.json"), 0) << ReadText(tmp.path() / "plain.json");
   ASSERT_EQ(RunCommand(base + " --camera " + (rec / "recording.yaml").string(), tmp.path() / "lens.json"), 0)
       << ReadText(tmp.path() / "lens.json");
-  const auto plain = nlohmann::json::parse(ReadText(tmp.path() / "plain.json"));
-  const auto lens = nlohmann::json::parse(ReadText(tmp.path() / "lens.json"));
+  const auto plain = ReadJsonFile(tmp.path() / "plain.json");
+  const auto lens = ReadJsonFile(tmp.path() / "lens.json");
   ASSERT_EQ(plain.size(), reader->entries().size());
   ASSERT_EQ(lens.size(), plain.size());
   for (size_t i = 0; i < plain.size(); ++i) EXPECT_EQ(Ids(lens[i]), Ids(plain[i])) << "image " << i;

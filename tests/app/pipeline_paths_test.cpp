@@ -8,6 +8,7 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include "json_file.h"
 #include "run_command.h"
 #include "tagsfm/core/csv_formats.h"
 #include "tagsfm/eval/ply_reader.h"
@@ -17,6 +18,7 @@ namespace tagsfm {
 namespace {
 
 namespace fs = std::filesystem;
+using testing::ReadJsonFile;
 using testing::ReadText;
 using testing::RunCommand;
 using testing::TempDir;
@@ -107,7 +109,7 @@ TEST_P(PipelineConfig, ReplayConfigSetsThePipelinesOptionsAndNamesAWrongField) {
   const fs::path config = tmp_.path() / "replay.yaml";
   std::ofstream(config) << "pipeline:\n  features:\n    enabled: false\n  tag_search: every_frame\n";
   const fs::path out = Replay("configured", "--config " + config.string());
-  const auto report = nlohmann::json::parse(ReadText(out / "report.json"));
+  const auto report = ReadJsonFile(out / "report.json");
   EXPECT_EQ(report["feature_points"].get<int>(), 0);
   EXPECT_EQ(report["tag_search"]["mode"], "every_frame");
   EXPECT_EQ(report["tag_search"]["full_frame_detections"].get<int>(), report["frames"].get<int>());

@@ -12,6 +12,7 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include "json_file.h"
 #include "tagsfm/capture/recording.h"
 #include "tagsfm/core/file_util.h"
 #include "test_paths.h"
@@ -66,9 +67,7 @@ TEST(ReplayCalibrateSlow, ReplayRefinesTheIntrinsicsInTheFinalAdjustment) {
   const fs::path rec = CopyWithoutCamera(scratch.path());
   const fs::path out = scratch.path() / "out";
   ASSERT_EQ(Tagsfm("replay " + rec.string() + " --out " + out.string()), 0);
-  auto text = ReadFileToString(out / "report.json");
-  ASSERT_TRUE(text.has_value());
-  const nlohmann::json report = nlohmann::json::parse(*text);
+  const nlohmann::json report = testing::ReadJsonFile(out / "report.json");
   EXPECT_TRUE(report["intrinsics_refined"].get<bool>());
   // Measured after refinement: fx 500.3, fy 501.0, cx 319.3, cy 237.0.
   EXPECT_NEAR(report["camera"]["fx"].get<double>(), 500, 5);
@@ -104,9 +103,7 @@ TEST(ReplayCalibrateSlow, PixelsThatAreNotSquareStaySo) {
   if (::testing::Test::HasFatalFailure()) return;
   const fs::path out = scratch.path() / "out";
   ASSERT_EQ(Tagsfm("replay " + rec.string() + " --no-features --out " + out.string()), 0);
-  auto text = ReadFileToString(out / "report.json");
-  ASSERT_TRUE(text.has_value());
-  const nlohmann::json report = nlohmann::json::parse(*text);
+  const nlohmann::json report = testing::ReadJsonFile(out / "report.json");
   EXPECT_FALSE(report["square_pixels"].get<bool>());
   const std::map<std::string, double> truth = {{"fx", 500}, {"fy", 510}};
   for (const auto& [name, value] : truth) {

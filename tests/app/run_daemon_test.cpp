@@ -15,6 +15,7 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include "json_file.h"
 #include "tagsfm/capture/recording.h"
 #include "run_command.h"
 #include "tagsfm/core/csv_formats.h"
@@ -23,6 +24,7 @@
 namespace tagsfm {
 namespace {
 
+using testing::ReadJsonFile;
 using testing::ReadText;
 using testing::RunCommand;
 using testing::TempDir;
@@ -71,8 +73,8 @@ TEST(RunDaemon, RecordsEveryFrameAndGivesTheSameResultAsAReplay) {
   }
   // Feature points: the daemon selects the same keyframes live and tracks
   // them from the recording at the end, so it finds the replay's points.
-  const auto live_report = nlohmann::json::parse(ReadText(tmp.path() / "live" / "results" / "report.json"));
-  const auto replay_report = nlohmann::json::parse(ReadText(replay_out / "report.json"));
+  const auto live_report = ReadJsonFile(tmp.path() / "live" / "results" / "report.json");
+  const auto replay_report = ReadJsonFile(replay_out / "report.json");
   EXPECT_GT(live_report["feature_points"].get<int>(), 0);
   EXPECT_EQ(live_report["feature_points"].get<int>(), replay_report["feature_points"].get<int>());
   EXPECT_EQ(live_report["feature_keyframes"].get<int>(), replay_report["feature_keyframes"].get<int>());

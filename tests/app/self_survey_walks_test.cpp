@@ -11,6 +11,7 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include "json_file.h"
 #include "rendered_walk.h"
 #include "run_command.h"
 #include "test_paths.h"
@@ -19,6 +20,7 @@ namespace tagsfm {
 namespace {
 
 namespace fs = std::filesystem;
+using testing::ReadJsonFile;
 using testing::ReadText;
 using testing::RunCommand;
 using testing::SynthWalkCommand;
@@ -50,8 +52,8 @@ WalkScore ScoreWalk(const fs::path& dir, int seed, const std::string& lens) {
             0)
       << ReadText(dir / "eval.err");
   WalkScore score;
-  const nlohmann::json e = nlohmann::json::parse(ReadText(dir / "eval.json"), nullptr, false);
-  if (e.is_discarded() || !e.contains("lengths") || e["lengths"].is_null() || !e.contains("map")) {
+  const nlohmann::json e = ReadJsonFile(dir / "eval.json");
+  if (e.is_null() || !e.contains("lengths") || e["lengths"].is_null() || !e.contains("map")) {
     ADD_FAILURE() << "seed " << seed << ": no map or lengths in evaluate's output";
     return score;
   }
