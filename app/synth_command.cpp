@@ -70,7 +70,7 @@ void AddSynthCommand(CLI::App& app, int& exit_code) {
   auto args = std::make_shared<SynthArgs>();
   synth::SynthOptions& o = args->options;
   CLI::App* cmd = app.add_subcommand("synth", "render a synthetic recording with ground truth (docs/synth.md)");
-  cmd->add_option("scene", o.scene, "box (a box on a floor, 37 targets) or wall (a flat wall, 24 targets)")
+  cmd->add_option("scene", o.scene, "box (a box on a floor, 37 targets), wall (a flat wall, 24 targets) or room (four walls seen from inside, 32 targets; its orbit turns 400 degrees and closes a loop, --distance and --azimuth do not apply)")
       ->required();
   cmd->add_option("--out", args->out, "the recording directory to create (must not exist or be empty)")->required();
   cmd->add_option("--path", o.path, "orbit (video-like arc, 30 fps) or photos (scattered views)")

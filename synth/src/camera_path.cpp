@@ -1,5 +1,6 @@
 // Camera paths: an arc around the scene sampled at 30 fps, or photo-like
-// scattered views; each looks at the scene centre with some jitter.
+// scattered views; each looks at the scene centre with some jitter (the
+// room: from inside, at its walls).
 #include "tagsfm/synth/camera_path.h"
 
 #include <cmath>
@@ -50,6 +51,38 @@ struct Wiggle {
   }
 };
 
+// The room is seen from inside: the camera walks round a 0.5 m circle about
+// the room's centre facing the walls and turns 400 degrees, so that the
+// loop closes on the walls it began with (orbit); or stands anywhere within
+// 0.8 m of the centre facing any way (photos). Aimed at a wall 2 m ahead.
+CameraPath RoomPath(const SynthOptions& options, const Scene& scene, cv::RNG& rng) {
+  CameraPath path;
+  constexpr double kTurn = 400 * kDeg;
+  if (options.path == "orbit") {
+    const Wiggle radius(rng), height(rng), heading(rng), elevation(rng), roll(rng);
+    for (int i = 0; i < options.frames; ++i) {
+      const double s = options.frames > 1 ? static_cast<double>(i) / (options.frames - 1) : 0.5;
+      const double walk = s * kTurn;
+      const Vector3d centre = scene.look_at + (0.5 + 0.1 * radius(s)) * Vector3d(std::cos(walk), std::sin(walk), 0) +
+                              Vector3d(0, 0, 0.1 * height(s));
+      const double yaw = walk + 10 * kDeg * heading(s), pitch = (2.5 + 7.5 * elevation(s)) * kDeg;
+      const Vector3d aim = centre + 2.0 * Vector3d(std::cos(yaw) * std::cos(pitch), std::sin(yaw) * std::cos(pitch), std::sin(pitch));
+      path.cam_from_world.push_back(LookAt(centre, aim, 3 * kDeg * roll(s)));
+      path.timestamps_ns.push_back(i * std::int64_t{1'000'000'000} / kVideoFps);
+    }
+    return path;
+  }
+  for (int i = 0; i < options.frames; ++i) {
+    const double r = 0.8 * std::sqrt(rng.uniform(0.0, 1.0)), at = rng.uniform(0.0, 2 * M_PI);
+    const Vector3d centre = scene.look_at + Vector3d(r * std::cos(at), r * std::sin(at), rng.uniform(-0.2, 0.2));
+    const double yaw = rng.uniform(0.0, 2 * M_PI), pitch = rng.uniform(-5.0, 15.0) * kDeg;
+    const Vector3d aim = centre + 2.0 * Vector3d(std::cos(yaw) * std::cos(pitch), std::sin(yaw) * std::cos(pitch), std::sin(pitch));
+    path.cam_from_world.push_back(LookAt(centre, aim, rng.uniform(-8.0, 8.0) * kDeg));
+    path.timestamps_ns.push_back(i * kPhotoGapNs);
+  }
+  return path;
+}
+
 }  // namespace
 
 Rigid3d LookAt(const Vector3d& centre, const Vector3d& target, double roll_rad) {
@@ -72,6 +105,7 @@ Result<CameraPath> MakeCameraPath(const SynthOptions& options, const Scene& scen
   const ViewRange range = RangeOf(scene, options);
   const TargetCornerMap targets = SceneTargets(scene);
   cv::RNG rng(options.seed * 6364136223846793005ULL + 99);
+  if (scene.name == "room") return RoomPath(options, scene, rng);  // targets all round: some always behind
   CameraPath path;
   const double mid_distance = 0.5 * (options.min_distance + options.max_distance);
   const double half_distance = 0.5 * (options.max_distance - options.min_distance);

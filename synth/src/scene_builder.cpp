@@ -1,4 +1,4 @@
-// The box and wall scenes: faces, textures and a random tag layout.
+// The box, wall and room scenes: faces, textures and a random tag layout.
 #include "tagsfm/synth/scene_builder.h"
 
 #include <algorithm>
@@ -111,6 +111,25 @@ Result<Scene> BuildScene(const SynthOptions& options) {
                {3, {0, 0}, {0.9, 0.5}, 3, kAnyAngle},
                {5, {3.1, 2.9}, {4.9, 3.6}, 6, kAnyAngle}};  // floor in front of the box
     scene.look_at = Vector3d(0, 0, 0.9);
+  } else if (options.scene == "room") {
+    // A 5 x 4 x 2.6 m room seen from inside (x in [-2.5, 2.5], y in [-2, 2]):
+    // each face's edge_u x edge_v points into the room, towards the camera.
+    const FaceSpec faces[] = {
+        {"wall_south", {2.5, -2, 0}, {-5, 0, 0}, {0, 0, 2.6}, 0.9, 0.004},
+        {"wall_east", {2.5, 2, 0}, {0, -4, 0}, {0, 0, 2.6}, 0.8, 0.004},
+        {"wall_north", {-2.5, 2, 0}, {5, 0, 0}, {0, 0, 2.6}, 0.95, 0.004},
+        {"wall_west", {-2.5, -2, 0}, {0, 4, 0}, {0, 0, 2.6}, 0.75, 0.004},
+        {"floor", {-2.5, -2, 0}, {5, 0, 0}, {0, 4, 0}, 0.7, 0.004},
+        {"ceiling", {-2.5, -2, 2.6}, {0, 4, 0}, {5, 0, 0}, 1.0, 0.004},
+    };
+    for (const FaceSpec& f : faces) AddFace(&scene, f, options.seed);
+    // 9 + 7 + 9 + 7 = 32 targets on the walls, at 0.6-2.1 m, as in a room
+    // surveyed by walking round it (the loop closes on the first wall).
+    regions = {{0, {0.3, 0.6}, {4.7, 2.1}, 9, kUpright},
+               {1, {0.3, 0.6}, {3.7, 2.1}, 7, kUpright},
+               {2, {0.3, 0.6}, {4.7, 2.1}, 9, kUpright},
+               {3, {0.3, 0.6}, {3.7, 2.1}, 7, kUpright}};
+    scene.look_at = Vector3d(0, 0, 1.4);
   } else {
     AddFace(&scene, {"wall", {-2, 0, 0}, {4, 0, 0}, {0, 0, 2.5}, 0.9, 0.0025}, options.seed);
     regions = {{0, {0.4, 0.3}, {3.6, 2.2}, 24, kUpright}};

@@ -21,7 +21,7 @@ bool Finite(double v) { return std::isfinite(v); }
 }  // namespace
 
 Status SynthOptions::Check() const {
-  if (scene != "box" && scene != "wall") return FieldError("scene", "must be 'box' or 'wall'", scene);
+  if (scene != "box" && scene != "wall" && scene != "room") return FieldError("scene", "must be 'box', 'wall' or 'room'", scene);
   if (path != "orbit" && path != "photos") return FieldError("path", "must be 'orbit' or 'photos'", path);
   if (frames < 1 || frames > 100000) return FieldError("frames", "must be in 1..100000", frames);
   if (width < 16 || width > 16384) return FieldError("width", "must be in 16..16384", width);

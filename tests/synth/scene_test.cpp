@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <set>
+#include <string>
 
 #include "tagsfm/synth/camera_path.h"
 #include "tagsfm/synth/renderer.h"
@@ -63,6 +64,54 @@ TEST(Scene, WallIsOneFaceWith24Targets) {
   ASSERT_TRUE(scene) << scene.error().message;
   EXPECT_EQ(scene->faces.size(), 1u);
   EXPECT_EQ(scene->tags.size(), 24u);
+}
+
+// The room is seen from inside: every face turns its front to the room's
+// centre (the renderer draws faces one-sided), and its 32 targets sit on the
+// four walls, upright and on their faces.
+TEST(Scene, RoomFacesLookInwardAndItsTargetsAreOnTheWalls) {
+  SynthOptions options;
+  options.scene = "room";
+  Result<Scene> scene = BuildScene(options);
+  ASSERT_TRUE(scene) << scene.error().message;
+  ASSERT_EQ(scene->faces.size(), 6u);
+  for (const SceneFace& face : scene->faces) {
+    const Eigen::Vector3d centre = face.rect.origin + 0.5 * (face.rect.edge_u + face.rect.edge_v);
+    EXPECT_GT((scene->look_at - centre).dot(face.rect.Normal()), 0.5) << face.name << " faces away from the room";
+  }
+  ASSERT_EQ(scene->tags.size(), 32u);
+  std::set<std::string> walls;
+  for (const PlacedTag& tag : scene->tags) {
+    const SceneFace& face = scene->faces[static_cast<size_t>(tag.face)];
+    walls.insert(face.name);
+    EXPECT_EQ(face.name.rfind("wall_", 0), 0u) << "tag " << tag.id << " on " << face.name;
+    const TagCorners c = TagCornersInWorld(*scene, tag);
+    for (int i = 0; i < 4; ++i) EXPECT_LT(face.rect.DistanceTo(c[i]), 1e-12) << "tag " << tag.id;
+    EXPECT_GT((c[1] - c[0]).cross(c[2] - c[1]).dot(face.rect.Normal()), 0) << "tag " << tag.id;
+  }
+  EXPECT_EQ(walls.size(), 4u);
+}
+
+// The room's orbit turns 400 degrees from inside, so the walls it began with
+// are seen again at its end: the loop closes. Smooth at 30 fps.
+TEST(CameraPath, RoomOrbitTurnsRoundAndClosesTheLoop) {
+  SynthOptions options;
+  options.scene = "room";
+  options.frames = 120;
+  const Scene scene = *BuildScene(options);
+  Result<CameraPath> path = MakeCameraPath(options, scene);
+  ASSERT_TRUE(path) << path.error().message;
+  ASSERT_EQ(path->cam_from_world.size(), 120u);
+  double turned = 0;
+  for (size_t i = 1; i < 120; ++i) {
+    const double step = RotationAngleDeg(path->cam_from_world[i].rotation, path->cam_from_world[i - 1].rotation);
+    EXPECT_LT(step, 6.0) << "frame " << i;
+    turned += step;
+    EXPECT_LT((path->cam_from_world[i].Center() - scene.look_at).norm(), 0.8);
+  }
+  EXPECT_GT(turned, 390.0);
+  // The last frame looks the way the first did, within the path's wiggle.
+  EXPECT_LT(RotationAngleDeg(path->cam_from_world.front().rotation, path->cam_from_world.back().rotation), 60.0);
 }
 
 TEST(Scene, TooLargeTagsAreAnErrorNamingTheOption) {

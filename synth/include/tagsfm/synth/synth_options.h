@@ -11,7 +11,7 @@
 namespace tagsfm::synth {
 
 struct SynthOptions {
-  std::string scene = "box";   // box | wall
+  std::string scene = "box";   // box | wall | room
   std::string path = "orbit";  // orbit (video-like, 30 fps) | photos (a few scattered views)
   int frames = 30;
   int width = 1280;
