@@ -20,6 +20,7 @@ namespace tagsfm {
 
 Status TagTrackerOptions::Check() const {
   if (full_frame_every < 1) return MakeError("full_frame_every must be >= 1 (got " + std::to_string(full_frame_every) + ")");
+  if (!(full_frame_after_motion > 0.0)) return MakeError("full_frame_after_motion must be > 0");
   if (!(padding_px >= 0.0)) return MakeError("padding_px must be >= 0");
   if (!(padding_fraction >= 0.0)) return MakeError("padding_fraction must be >= 0");
   if (!(region_quad_decimate >= 1.0f)) return MakeError("region_quad_decimate must be >= 1");
@@ -28,6 +29,9 @@ Status TagTrackerOptions::Check() const {
     return MakeError("entry_band_tag_sizes must be in [0, 100]");
   }
   if (!(entry_band_margin_px >= 0.0)) return MakeError("entry_band_margin_px must be >= 0");
+  if (!(entry_band_inflow_frames >= 1.0 && entry_band_inflow_frames <= 10.0)) {
+    return MakeError("entry_band_inflow_frames must be in [1, 10]");
+  }
   if (fine_search_below_tags < 0) return MakeError("fine_search_below_tags must be >= 0");
   if (!(entry_band_candidates_min_module_px >= 0.0)) {
     return MakeError("entry_band_candidates_min_module_px must be >= 0");
@@ -119,6 +123,7 @@ double MsSince(std::chrono::steady_clock::time_point start) {
 
 void TagTracker::Update(const DetectionSet& detections) {
   std::map<TagId, TagTrack> next;
+  std::vector<double> motion;  // px per frame of each tag seen before
   for (const TagDetection& tag : detections.tags) {
     TagTrack track;
     track.corners = tag.corners;
@@ -127,10 +132,19 @@ void TagTracker::Update(const DetectionSet& detections) {
     if (old != tracks_.end()) {
       track.previous = old->second.corners;
       track.previous_frame = old->second.frame;
+      if (track.frame > track.previous_frame) {
+        Eigen::Vector2d shift = Eigen::Vector2d::Zero();
+        for (int k = 0; k < 4; ++k) shift += 0.25 * (track.corners[k] - (*track.previous)[k]);
+        motion.push_back(shift.norm() / static_cast<double>(track.frame - track.previous_frame));
+      }
     }
     next[tag.id] = track;
   }
   tracks_ = std::move(next);
+  if (!motion.empty()) {
+    std::nth_element(motion.begin(), motion.begin() + motion.size() / 2, motion.end());
+    motion_since_full_px_ += motion[motion.size() / 2];
+  }
 }
 
 namespace {
@@ -273,8 +287,9 @@ void TagTracker::AddEntryBands(const cv::Size& image, std::vector<Search>* searc
     }
     // Unknown motion: no flow (m and t zero), inflow 0, and a band all the same.
     if (motion_known && !(inflow >= options_.entry_min_inflow_px)) continue;
-    const int width =
-        static_cast<int>(std::ceil(options_.entry_band_tag_sizes * largest + inflow + options_.entry_band_margin_px));
+    const int width = static_cast<int>(std::ceil(options_.entry_band_tag_sizes * largest +
+                                                 options_.entry_band_inflow_frames * std::max(inflow, 0.0) +
+                                                 options_.entry_band_margin_px));
     cv::Rect band;
     switch (side) {
       case 0: band = cv::Rect(0, 0, width, image.height); break;
@@ -354,6 +369,7 @@ Result<DetectionSet> TagTracker::DetectFullFrame(const cv::Mat& gray8, FrameId f
                                                  const std::map<TagId, QuadCorners>& expected) {
   ++stats_.full_frame_detections;
   frames_since_full_ = 0;
+  motion_since_full_px_ = 0.0;
   have_full_ = true;
   const auto start = std::chrono::steady_clock::now();
   Result<DetectionSet> detections = DetectWholeImage(gray8, frame);
@@ -501,7 +517,8 @@ Status TagTracker::SearchMissed(const cv::Mat& gray8, FrameId frame, const std::
 Result<DetectionSet> TagTracker::Track(const cv::Mat& gray8, FrameId frame,
                                        const std::map<TagId, QuadCorners>& predicted) {
   ++stats_.frames;
-  const bool scheduled = !have_full_ || frames_since_full_ + 1 >= options_.full_frame_every;
+  const bool scheduled = !have_full_ || frames_since_full_ + 1 >= options_.full_frame_every ||
+                         motion_since_full_px_ >= options_.full_frame_after_motion * std::max(gray8.cols, gray8.rows);
   const bool backing_off = full_frames_before_retry_ > 0;
   if (backing_off) {
     --full_frames_before_retry_;

@@ -22,6 +22,7 @@ void ReadDetector(YamlFields f, TagDetectorOptions* o) {
 
 void ReadTracker(YamlFields f, TagTrackerOptions* o) {
   f.Read("full_frame_every", &o->full_frame_every);
+  f.Read("full_frame_after_motion", &o->full_frame_after_motion);
   f.Read("padding_px", &o->padding_px);
   f.Read("padding_fraction", &o->padding_fraction);
   f.Read("region_quad_decimate", &o->region_quad_decimate);
@@ -29,6 +30,7 @@ void ReadTracker(YamlFields f, TagTrackerOptions* o) {
   f.Read("search_entry_bands", &o->search_entry_bands);
   f.Read("entry_band_tag_sizes", &o->entry_band_tag_sizes);
   f.Read("entry_band_margin_px", &o->entry_band_margin_px);
+  f.Read("entry_band_inflow_frames", &o->entry_band_inflow_frames);
   f.Read("entry_band_candidates", &o->entry_band_candidates);
   f.Read("entry_band_candidates_min_module_px", &o->entry_band_candidates_min_module_px);
   f.Read("entry_min_inflow_px", &o->entry_min_inflow_px);

@@ -269,12 +269,100 @@ TEST(TagTracker, FewSmallTagsAreSearchedAtFullResolution) {
   EXPECT_GE(frames_with_misses, 2) << "the scene no longer tests the case";
 }
 
+// A fast pan, 640x480: the content flows right by `pan_px` a frame. Tags
+// given by their centre at frame 0 (frontal squares of `side_px`); `from`:
+// the first frame a tag is there (before it, hidden).
+struct PanTag {
+  TagId id;
+  double x, y, side_px;
+  int from = 0;
+};
+
+cv::Mat RenderPanFrame(const std::vector<PanTag>& tags, double pan_px, int frame) {
+  std::vector<PlacedTag> placed;
+  for (const PanTag& t : tags) {
+    if (frame < t.from) continue;
+    placed.push_back(TagSeenFromOneMetre(t.id, t.x + pan_px * frame, t.y, t.side_px, Eigen::Matrix3d::Identity()));
+  }
+  TagRenderOptions render;
+  render.blur_sigma_px = 0.7;
+  render.noise_sigma = 2.0;
+  render.texture_contrast = 40.0;
+  render.seed = 900 + frame;
+  return *RenderTags("tag36h11", 640, 480, placed, render);
+}
+
+// The first frame of 0..frames-1 on which `id` is found (-1: never), by the
+// tracker or by a full-frame detection of each frame.
+int FirstFound(const std::vector<PanTag>& tags, double pan_px, int frames, TagId id, TagTracker* tracker) {
+  auto full = TagDetector::Create(TagDetectorOptions{});
+  for (int f = 0; f < frames; ++f) {
+    const cv::Mat image = RenderPanFrame(tags, pan_px, f);
+    auto found = tracker ? tracker->Track(image, f) : (*full)->Detect(image, f);
+    if (found.has_value() && Ids(*found).count(id)) return f;
+  }
+  return -1;
+}
+
+// A tag twice the size of those tracked comes in from the left border of a
+// pan of 60 px a frame. It is wholly in view first on frame 4, its black
+// square at x 58-122: beyond a band of one frame's inflow (1.25 tracked
+// extents + 60 + 3 = 101 px), inside one of two (161 px). With one frame's
+// inflow it was found only by the next scheduled full-frame pass.
+TEST(TagTracker, ATagLargerThanTheTrackedOnesIsFoundAsItComesIn) {
+  const std::vector<PanTag> tags = {{1, 100, 80, 30}, {2, 200, 400, 30}, {3, 330, 80, 30}, {7, -150, 240, 64}};
+  ASSERT_EQ(FirstFound(tags, 60, 6, 7, nullptr), 4) << "the scene no longer tests the case";
+  for (const double inflow_frames : {1.0, 2.0}) {
+    TagTrackerOptions options;
+    options.full_frame_every = 100;
+    options.full_frame_after_motion = 100;  // the bands alone
+    options.entry_band_inflow_frames = inflow_frames;
+    auto tracker = TagTracker::Create(TagDetectorOptions{}, options);
+    ASSERT_TRUE(tracker.has_value());
+    const int first = FirstFound(tags, 60, 6, 7, tracker->get());
+    if (inflow_frames == 1.0) {
+      EXPECT_EQ(first, -1) << "one frame's inflow: the band no longer misses it, the test is moot";
+    } else {
+      EXPECT_EQ(first, 4);
+    }
+  }
+}
+
+// A tag that comes into sight inside the view (from behind an occluder) in a
+// pan of 40 px a frame, at x 200 on frame 3: it leaves the 640 px image
+// after frame 13, before the full-frame pass scheduled every 15 frames.
+// Once the tags have moved a quarter of the image (160 px, 4 frames) since
+// the last full-frame pass, the next one runs. The last before the tag
+// appears is on frame 2 (frame 1's constant-velocity guess, from a single
+// sighting, fails; the back-off adds frame 2), so it is found by frame 6.
+TEST(TagTracker, ATagAppearingInsideAFastPanIsFoundBeforeItLeaves) {
+  const std::vector<PanTag> tags = {{1, 60, 80, 30}, {2, 100, 400, 30}, {3, 80, 240, 30}, {9, 80, 160, 30, 3}};
+  ASSERT_EQ(FirstFound(tags, 40, 14, 9, nullptr), 3) << "the scene no longer tests the case";
+  TagTrackerOptions by_schedule;
+  by_schedule.full_frame_after_motion = 100;
+  auto scheduled_only = TagTracker::Create(TagDetectorOptions{}, by_schedule);
+  auto tracker = TagTracker::Create(TagDetectorOptions{}, TagTrackerOptions{});
+  ASSERT_TRUE(scheduled_only.has_value() && tracker.has_value());
+  EXPECT_EQ(FirstFound(tags, 40, 14, 9, scheduled_only->get()), -1) << "found without a full-frame pass: the test is moot";
+  const int first = FirstFound(tags, 40, 14, 9, tracker->get());
+  EXPECT_GE(first, 3);
+  EXPECT_LE(first, 6);
+}
+
 TEST(TagTracker, OptionsAreChecked) {
   TagTrackerOptions options;
   options.full_frame_every = 0;
   auto tracker = TagTracker::Create(TagDetectorOptions{}, options);
   ASSERT_FALSE(tracker.has_value());
   EXPECT_NE(tracker.error().message.find("full_frame_every"), std::string::npos);
+  TagTrackerOptions motion;
+  motion.full_frame_after_motion = 0;
+  EXPECT_FALSE(TagTracker::Create(TagDetectorOptions{}, motion).has_value());
+  TagTrackerOptions bands;
+  bands.entry_band_inflow_frames = 0.5;
+  auto refused = TagTracker::Create(TagDetectorOptions{}, bands);
+  ASSERT_FALSE(refused.has_value());
+  EXPECT_NE(refused.error().message.find("entry_band_inflow_frames"), std::string::npos);
 }
 
 }  // namespace

@@ -45,6 +45,13 @@ class DetectionWorkers;
 
 struct TagTrackerOptions {
   int full_frame_every = 15;          // frames between full-frame detections (>= 1)
+  // ...or sooner, once the tracked tags have moved this fraction of the
+  // image's larger side since the last one: a tag that comes into sight
+  // inside the view (from behind an occluder, or decodable again after a
+  // few frames too oblique or blurred) is found before a fast pan carries it
+  // out. Turning 100 degrees a second round a room, such a tag was read in
+  // one frame of the 15 it was in view. A slow camera keeps the schedule.
+  double full_frame_after_motion = 0.25;
   double padding_px = 10.0;           // region margin around a predicted tag...
   double padding_fraction = 0.25;     // ...or this fraction of its size, if larger
   // Regions are searched at this decimation (1: full resolution, which also
@@ -69,6 +76,13 @@ struct TagTrackerOptions {
   bool search_entry_bands = true;
   double entry_band_tag_sizes = 1.25;
   double entry_band_margin_px = 3.0;
+  // The band holds this many frames of inflow: with 2, a tag up to one
+  // frame's inflow larger than the tracked ones still lies wholly in it on
+  // the frame it comes in. In a fast pan round a room (80 px a frame) a tag
+  // nearer than the others, twice their size, came in beside 1-frame bands
+  // and was missed for 7 frames, which broke the map's chain. A slow camera
+  // keeps its bands (and their cost): the inflow term is small there.
+  double entry_band_inflow_frames = 2.0;
   // Bands searched by candidates: OpenCV's aruco (families it has a
   // dictionary for: tag36h11, tag36h10, tag25h9, tag16h5) says where tags
   // are, libapriltag confirms each one not tracked already in a small
@@ -196,6 +210,7 @@ class TagTracker {
   std::vector<Search> searches_;  // reused from frame to frame
   std::map<TagId, TagTrack> tracks_;
   int frames_since_full_ = 0;
+  double motion_since_full_px_ = 0.0;  // the tracked tags' median motion summed over the frames since
   bool have_full_ = false;
   int recoveries_in_a_row_ = 0;      // tracking attempts that ended in a recovery, since one did not
   int full_frames_before_retry_ = 0;  // backing off: full-frame detections left before tracking again
