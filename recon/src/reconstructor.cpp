@@ -802,6 +802,12 @@ void Reconstructor::AdjustFirstAndRetry(std::vector<FrameState*>* registered) {
     Register(frame, false, &ignored);
     if (frame.registered) registered->push_back(&frame);
   }
+  // Tags still waiting were refused against the incremental poses. Where a
+  // loop closes, a tag seen at its start and its end has views on both
+  // sides of the drift, and no pose fits them all until the adjustment has
+  // spread it: on a room walk of 400 degrees three such tags fitted their
+  // views at 2.7-5.5 px before it.
+  if (!pending_.empty()) MapWaitingTags();
 }
 
 // The corners' noise against their covariance (FitCornerNoise) from the
