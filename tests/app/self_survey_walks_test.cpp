@@ -11,6 +11,7 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include "evaluate_command.h"
 #include "json_file.h"
 #include "rendered_walk.h"
 #include "run_command.h"
@@ -20,7 +21,8 @@ namespace tagsfm {
 namespace {
 
 namespace fs = std::filesystem;
-using testing::ReadJsonFile;
+using testing::EvaluateAgainstTruth;
+using testing::LengthErrorsOverSigma;
 using testing::ReadText;
 using testing::RunCommand;
 using testing::SynthWalkCommand;
@@ -47,23 +49,15 @@ WalkScore ScoreWalk(const fs::path& dir, int seed, const std::string& lens) {
                        dir / "replay.log"),
             0)
       << ReadText(dir / "replay.log");
-  EXPECT_EQ(RunCommand(exe + " evaluate " + out.string() + " " + rec.string() + " 2> " + (dir / "eval.err").string(),
-                       dir / "eval.json"),
-            0)
-      << ReadText(dir / "eval.err");
   WalkScore score;
-  const nlohmann::json e = ReadJsonFile(dir / "eval.json");
-  if (e.is_null() || !e.contains("lengths") || e["lengths"].is_null() || !e.contains("map")) {
+  const nlohmann::json e = EvaluateAgainstTruth(out, rec, dir);
+  if (!e.is_object() || !e.contains("lengths") || e["lengths"].is_null() || !e.contains("map")) {
     ADD_FAILURE() << "seed " << seed << ": no map or lengths in evaluate's output";
     return score;
   }
   score.rigid_ratio = e["map"]["rigid_ratio"].get<double>();
   score.scale_error_ppm = e["map"]["scale_error_ppm"].get<double>();
-  for (const auto& pair : e["lengths"]["pairs"]) {
-    if (pair["sigma_m"].is_number() && pair["sigma_m"].get<double>() > 0) {
-      score.error_over_sigma.push_back(pair["error_m"].get<double>() / pair["sigma_m"].get<double>());
-    }
-  }
+  score.error_over_sigma = LengthErrorsOverSigma(e);
   return score;
 }
 
