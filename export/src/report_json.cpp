@@ -10,6 +10,7 @@
 #include "tagsfm/export/feature_triangulation_json.h"
 #include "tagsfm/export/result_writer.h"
 #include "tagsfm/recon/intrinsics_check.h"
+#include "tagsfm/recon/tag_geometry.h"
 
 namespace tagsfm {
 namespace {
@@ -97,8 +98,7 @@ nlohmann::json TargetsJson(const ReconstructionResult& result) {
     for (size_t i = 0; i < c.ids.size(); ++i) {
       const auto tag = result.tags.find(c.ids[i]);
       if (tag == result.tags.end()) continue;
-      const TagCorners corners = tag->second.CornersInWorld();
-      const Eigen::Vector3d centre = 0.25 * (corners[0] + corners[1] + corners[2] + corners[3]);
+      const Eigen::Vector3d centre = TagCenter(tag->second.CornersInWorld());
       const Eigen::Matrix3d position = c.covariance.block<3, 3>(6 * i + 3, 6 * i + 3) +
                                        scale_sigma_rel * scale_sigma_rel * centre * centre.transpose();
       centre_sigma[c.ids[i]] = position.diagonal().cwiseMax(0.0).cwiseSqrt();
