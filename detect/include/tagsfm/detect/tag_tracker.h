@@ -210,7 +210,7 @@ class TagTracker {
   std::vector<Search> searches_;  // reused from frame to frame
   std::map<TagId, TagTrack> tracks_;
   int frames_since_full_ = 0;
-  double motion_since_full_px_ = 0.0;  // the tracked tags' median motion summed over the frames since
+  double motion_since_full_px_ = 0.0;  // the tracked tags' median motion, summed since the last full-frame pass
   bool have_full_ = false;
   int recoveries_in_a_row_ = 0;      // tracking attempts that ended in a recovery, since one did not
   int full_frames_before_retry_ = 0;  // backing off: full-frame detections left before tracking again
