@@ -4,7 +4,6 @@
 // case, without the points, is tests/recon/scale_bars_test.cpp.
 #include <cmath>
 #include <fstream>
-#include <map>
 #include <string>
 #include <utility>
 #include <vector>
@@ -47,7 +46,7 @@ fs::path RenderWithBar(const fs::path& dir, int seed, const std::string& lens) {
       << ReadText(dir / "first.log");
   std::vector<int> well_seen;
   const nlohmann::json first = ReadJsonFile(dir / "first/report.json");
-  if (!first.is_discarded()) {
+  if (first.is_object()) {
     for (const auto& t : first["targets"]) {
       if (t["views"].get<int>() >= 5) well_seen.push_back(t["tag"].get<int>());
     }

@@ -23,6 +23,8 @@ namespace {
 namespace fs = std::filesystem;
 using testing::EvaluateAgainstTruth;
 using testing::LengthErrorsOverSigma;
+using testing::Pool;
+using testing::PooledRatios;
 using testing::ReadText;
 using testing::RunCommand;
 using testing::SynthWalkCommand;
@@ -99,21 +101,13 @@ TEST(SelfSurveyWalksSlow, MapsAndLengthSigmasAgainstTheTruth) {
     pooled.insert(pooled.end(), walk.error_over_sigma.begin(), walk.error_over_sigma.end());
   }
   ASSERT_GT(pooled.size(), 1000u);
-  double sum = 0, sum_sq = 0;
-  int beyond = 0;
-  for (double r : pooled) {
-    sum += r;
-    beyond += std::abs(r) > 3;
-  }
-  const double mean = sum / static_cast<double>(pooled.size());
-  for (double r : pooled) sum_sq += (r - mean) * (r - mean);
-  const double std_dev = std::sqrt(sum_sq / static_cast<double>(pooled.size() - 1));
-  std::printf("E / sigma over %zu pairs of 8 walks: mean %.3f, std %.3f, beyond 3 sigma %d\n", pooled.size(), mean,
-              std_dev, beyond);
-  EXPECT_LT(std::abs(mean), 0.5);
-  EXPECT_GT(std_dev, 0.7);
-  EXPECT_LT(std_dev, 1.5);
-  EXPECT_LT(beyond, static_cast<int>(0.01 * static_cast<double>(pooled.size())));
+  const PooledRatios e = Pool(pooled);
+  std::printf("E / sigma over %zu pairs of 8 walks: mean %.3f, std %.3f, beyond 3 sigma %d\n", pooled.size(), e.mean,
+              e.std_dev, e.beyond_3);
+  EXPECT_LT(std::abs(e.mean), 0.5);
+  EXPECT_GT(e.std_dev, 0.7);
+  EXPECT_LT(e.std_dev, 1.5);
+  EXPECT_LT(e.beyond_3, static_cast<int>(0.01 * static_cast<double>(pooled.size())));
 }
 
 }  // namespace

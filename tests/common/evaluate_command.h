@@ -1,6 +1,8 @@
 #pragma once
 // `tagsfm evaluate OUT REC` from a test, and the figures the metrology
 // tests read from it.
+#include <cmath>
+#include <cstdlib>
 #include <filesystem>
 #include <vector>
 
@@ -37,6 +39,25 @@ inline std::vector<double> LengthErrorsOverSigma(const nlohmann::json& evaluatio
     }
   }
   return ratios;
+}
+
+// Mean, sample standard deviation and how many lie beyond 3 of E/sigma
+// pooled over pairs: an honest sigma gives about 0, 1 and 0.3 %.
+struct PooledRatios {
+  double mean = 0, std_dev = 0;
+  int beyond_3 = 0;
+};
+inline PooledRatios Pool(const std::vector<double>& ratios) {
+  PooledRatios p;
+  if (ratios.size() < 2) return p;
+  for (double r : ratios) {
+    p.mean += r / static_cast<double>(ratios.size());
+    p.beyond_3 += std::abs(r) > 3;
+  }
+  double sum_sq = 0;
+  for (double r : ratios) sum_sq += (r - p.mean) * (r - p.mean);
+  p.std_dev = std::sqrt(sum_sq / static_cast<double>(ratios.size() - 1));
+  return p;
 }
 
 }  // namespace tagsfm::testing
