@@ -114,4 +114,24 @@ std::vector<TagPairMeasurement> MeasureAllTagPairs(const TargetCornerMap& target
   return pairs;
 }
 
+std::optional<double> MapScaleSigmaRel(const TargetCornerMap& targets, const TagCovariance& covariance) {
+  if (targets.size() < 2) return std::nullopt;
+  Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
+  for (const auto& [id, corners] : targets) centroid += TagCenter(corners);
+  centroid /= static_cast<double>(targets.size());
+  double spread = 0;  // sum of squared distances from the centroid
+  for (const auto& [id, corners] : targets) spread += (TagCenter(corners) - centroid).squaredNorm();
+  if (!(spread > 0)) return std::nullopt;
+  // d(scale) = sum_i (c_i - centroid) . dc_i / spread, dc_i the translation part of tag i's perturbation.
+  const size_t n = covariance.ids.size();
+  Eigen::VectorXd gradient = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(6 * n));
+  for (size_t i = 0; i < n; ++i) {
+    const auto tag = targets.find(covariance.ids[i]);
+    if (tag == targets.end()) continue;
+    gradient.segment<3>(static_cast<Eigen::Index>(6 * i + 3)) = (TagCenter(tag->second) - centroid) / spread;
+  }
+  const double variance = gradient.dot(covariance.covariance * gradient);
+  return std::sqrt(std::max(variance, 0.0));
+}
+
 }  // namespace tagsfm

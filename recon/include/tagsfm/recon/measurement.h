@@ -50,4 +50,13 @@ std::vector<TagPairMeasurement> MeasureAllTagPairs(const TargetCornerMap& target
                                                    const std::optional<TagCovariance>& covariance,
                                                    double scale_sigma_rel = 0);
 
+// How well the images alone fix the map's scale: the relative sigma of the
+// scale a similarity fit of the tags' centres would find, propagated from
+// the covariance to first order (the fit's scale moves by the centres'
+// radial errors about their centroid). Rotating or shifting the whole map
+// does not change it, so the datum the covariance is relative to does not
+// matter. Tags not in the covariance count as exact. nullopt with fewer
+// than two tags.
+std::optional<double> MapScaleSigmaRel(const TargetCornerMap& targets, const TagCovariance& covariance);
+
 }  // namespace tagsfm
