@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
+#include <optional>
 
 #include <nlohmann/json.hpp>
 
@@ -10,6 +11,7 @@
 #include "tagsfm/export/feature_triangulation_json.h"
 #include "tagsfm/export/result_writer.h"
 #include "tagsfm/recon/intrinsics_check.h"
+#include "tagsfm/recon/measurement.h"
 #include "tagsfm/recon/tag_geometry.h"
 
 namespace tagsfm {
@@ -33,8 +35,12 @@ std::string PointText(const ScaleBarPoint& p) {
 }
 
 // Where the scale comes from; sigma_rel is what `measure` adds to every
-// length's sigma (scale part = sigma_rel * length).
-nlohmann::json ScaleJson(const MapScale& scale) {
+// length's sigma (scale part = sigma_rel * length). With the scale from the
+// tag sizes, images_sigma_rel is how well the corners fix it (already in
+// every length's sigma through the covariance) and total_sigma_rel both
+// together: what a surveyor quotes for the map's scale.
+nlohmann::json ScaleJson(const ReconstructionResult& result) {
+  const MapScale& scale = result.scale;
   nlohmann::json bars = nlohmann::json::array();
   for (const ScaleBarCheck& c : scale.bars) {
     bars.push_back({{"a", PointText(c.bar.a)},
@@ -49,6 +55,11 @@ nlohmann::json ScaleJson(const MapScale& scale) {
                         {"factor", scale.scale},
                         {"sigma_rel", scale.sigma_rel},
                         {"scale_bars", bars}};
+  const bool known_map = std::any_of(result.tags.begin(), result.tags.end(), [](const auto& t) { return t.second.known; });
+  std::optional<double> images;
+  if (result.covariance && !known_map && scale.source == "tag sizes") images = MapScaleSigmaRel(result.Targets(), *result.covariance);
+  out["images_sigma_rel"] = images ? nlohmann::json(*images) : nlohmann::json(nullptr);
+  out["total_sigma_rel"] = images ? nlohmann::json(std::hypot(*images, scale.sigma_rel)) : nlohmann::json(nullptr);
   if (!scale.note.empty()) out["note"] = scale.note;
   return out;
 }
@@ -214,7 +225,7 @@ void AddAdjustment(const ReconstructionResult& result, nlohmann::json* report) {
 Status WriteReport(const std::filesystem::path& path, const ReconstructionResult& result, const RunStats& stats) {
   nlohmann::json report;
   AddFramesAndTargets(result, stats, &report);
-  report["scale"] = ScaleJson(result.scale);
+  report["scale"] = ScaleJson(result);
   report["targets"] = TargetsJson(result);
   AddPointsAndReprojection(result, &report);
   AddRunStatistics(stats, &report);

@@ -99,6 +99,8 @@ TEST(ReplayBoxSlow, KnownMapPosesMatchTheTruth) {
   EXPECT_LT(c.centre_median_m, 0.001);
   const nlohmann::json report = ReadJsonFile(out / "report.json");
   EXPECT_LT(report["target_reprojection_rms_px"].get<double>(), 0.3);  // the bound
+  // The known map fixes the scale: the images add no sigma of their own.
+  EXPECT_TRUE(report["scale"]["images_sigma_rel"].is_null()) << report["scale"].dump();
 }
 
 // Feature points (SIFT tracks triangulated from the target-derived poses)
@@ -307,6 +309,11 @@ TEST(ReplayBoxSlow, WithoutMapTargetsAreMetricAndMatchTheTruth) {
   for (const nlohmann::json& s : (*best)["sigma_mm"]) trace += std::pow(1e-3 * s.get<double>(), 2);
   EXPECT_GT(variance, scale_part * scale_part * (1 + 1e-6));
   EXPECT_LE(variance, trace * (1 + 1e-6)) << (*best).dump();
+  // The scale's sigma: the images' part and the print tolerance together.
+  const double images = report["scale"]["images_sigma_rel"].get<double>();
+  EXPECT_GT(images, 0);
+  EXPECT_NEAR(report["scale"]["total_sigma_rel"].get<double>(),
+              std::hypot(images, report["scale"]["sigma_rel"].get<double>()), 1e-12);
 }
 
 TEST(ReplayBoxSlow, UnreadableFrameIsSkippedAndCounted) {
