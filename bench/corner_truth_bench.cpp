@@ -34,7 +34,9 @@ struct Bin {
   std::vector<double> errors, outward;
   std::vector<double> side_ratio;  // detected / true side length - 1, per side
   std::vector<double> edge_outward;  // per edge: the detected corners' mean offset outside the true edge line
+  std::vector<double> view_outward;  // per tag view: its four corners' mean outward offset
   void Add(const Bin& other) {
+    view_outward.insert(view_outward.end(), other.view_outward.begin(), other.view_outward.end());
     edge_outward.insert(edge_outward.end(), other.edge_outward.begin(), other.edge_outward.end());
     errors.insert(errors.end(), other.errors.begin(), other.errors.end());
     outward.insert(outward.end(), other.outward.begin(), other.outward.end());
@@ -60,6 +62,19 @@ double Mean(const std::vector<double>& values) {
   return count ? sum / count : NAN;
 }
 
+// Standard deviation of the values within 0.5 (px) of zero.
+double SpreadWithin(const std::vector<double>& values) {
+  const double mean = Mean(values);
+  double sum = 0;
+  int count = 0;
+  for (double v : values) {
+    if (std::abs(v) > 0.5) continue;
+    sum += (v - mean) * (v - mean);
+    ++count;
+  }
+  return count > 1 ? std::sqrt(sum / (count - 1)) : NAN;
+}
+
 nlohmann::json BinJson(const Bin& bin) {
   // Inliers: corners within 0.5 px (an occluded tag or a declined fit
   // would otherwise dominate a mean of a thousandth of a pixel).
@@ -80,6 +95,10 @@ nlohmann::json BinJson(const Bin& bin) {
           {"p95_px", Percentile(bin.errors, 0.95)},
           {"outward_bias_px", inliers ? outward_sum / inliers : NAN},
           {"size_ppm", ratio_inliers ? 1e6 * ratio_sum / ratio_inliers : NAN},
+          // A view's size error: independent corners would spread its mean
+          // outward offset by half a corner's; the edges they share spread it more.
+          {"outward_sd_px", SpreadWithin(bin.outward)},
+          {"view_outward_sd_px", SpreadWithin(bin.view_outward)},
           {"edges", bin.edge_outward.size()},
           {"edge_outward_px", Mean(bin.edge_outward)}};
 }
@@ -158,6 +177,7 @@ void AddTag(const TagDetection& det, const TrueTag& truth, const CameraModel& ca
     one.outward.push_back(offset.dot((px[k] - centre).normalized()));
     one.side_ratio.push_back((det.corners[(k + 1) % 4] - det.corners[k]).norm() / true_side - 1);
   }
+  one.view_outward.push_back(0.25 * (one.outward[0] + one.outward[1] + one.outward[2] + one.outward[3]));
   tally->by_module[BinOf(kBinEdges, side_sum / 4 / 8)].Add(one);
   tally->by_angle[BinOf(kAngleEdges, ViewAngleDeg(truth.in_cam))].Add(one);
   const Eigen::Vector3d centre3 = 0.25 * (truth.in_cam[0] + truth.in_cam[1] + truth.in_cam[2] + truth.in_cam[3]);
