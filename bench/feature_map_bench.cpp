@@ -9,7 +9,7 @@
 // options: --max-features N --contrast C --relative-contrast 0|1 --plain-sift 0|1 --image-scale S --epipolar PX --ratio R --grid-cell PX
 //          --max-distance D --neighbours N --min-overlap S --max-view-angle DEG --min-angle DEG
 //          --max-view-error PX --max-rms PX --max-relative-sigma S --feature-sigma PX --min-views N
-//          --refine 0|1 --keep-unrefined 0|1 --refined-sigma PX --half-window N --min-correlation C --max-fit-sigma PX --max-shift PX --balance-scale 0|1 --max-level N
+//          --refine 0|1 --keep-unrefined 0|1 --refined-sigma PX --half-window N --min-correlation C --max-fit-sigma PX --fit-sigma-per-epipolar K --max-shift PX --balance-scale 0|1 --max-level N
 //          --depth-factor F --every N --threads N
 #include <algorithm>
 #include <chrono>
@@ -189,6 +189,7 @@ bool ParseOptions(int argc, char** argv, int first, BenchOptions& o) {
     else if (name == "--half-window") o.map.refinement.half_window = static_cast<int>(v);
     else if (name == "--min-correlation") o.map.refinement.min_correlation = v;
     else if (name == "--max-fit-sigma") o.map.refinement.max_sigma_px = v;
+    else if (name == "--fit-sigma-per-epipolar") o.map.max_fit_sigma_per_epipolar_sigma = v;
     else if (name == "--max-shift") o.map.refinement.max_shift_px = v;
     else if (name == "--max-level") o.map.refinement.max_level = static_cast<int>(v);
     else if (name == "--balance-scale") o.map.refinement.balance_scale = v != 0;

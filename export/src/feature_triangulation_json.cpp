@@ -19,6 +19,7 @@ nlohmann::json PassJson(const TrackTriangulationStats& s) {
 nlohmann::json FeatureTriangulationJson(const FeatureTriangulationStats& stats) {
   return {{"first_pass", PassJson(stats.first_pass)},
           {"epipolar_sigma_px", stats.epipolar_sigma_px},
+          {"max_fit_sigma_px", stats.max_fit_sigma_px},
           {"line_fits", stats.line_fits},
           {"refinement_dropped", stats.refinement_dropped},
           {"final_pass", PassJson(stats.final_pass)}};

@@ -22,6 +22,7 @@ Status FeatureMapOptions::Check() const {
   if (!(min_overlap >= 0 && min_overlap <= 1)) return MakeError("feature_map.min_overlap must be in [0, 1]");
   if (!(max_view_angle_deg > 0 && max_view_angle_deg <= 180)) return MakeError("feature_map.max_view_angle_deg must be in (0, 180]");
   if (!(rematch_shift_px >= 0)) return MakeError("feature_map.rematch_shift_px must be >= 0");
+  if (!(max_fit_sigma_per_epipolar_sigma >= 0)) return MakeError("feature_map.max_fit_sigma_per_epipolar_sigma must be >= 0");
   return Status::Ok();
 }
 
@@ -375,8 +376,9 @@ std::vector<FeaturePoint> FeatureMap::Triangulate(const PoseMap& cam_from_world,
     track_of[i] = t;
   }
   const double unrefined_sigma_px = options_.keep_unrefined_views ? options_.triangulation.feature_sigma_px : 0.0;
+  PatchRefinementOptions refinement = options_.refinement;
   const auto refine = [&](size_t i, double epipolar_sigma_px, TrackRefinementReport* report) {
-    return RefineTrackViews(tracks[track_of[i]], first[i], cam_from_world, image_of, camera, options_.refinement,
+    return RefineTrackViews(tracks[track_of[i]], first[i], cam_from_world, image_of, camera, refinement,
                             unrefined_sigma_px, epipolar_sigma_px, report);
   };
   // The epipolar lines' error, from the free fits of every k-th track
@@ -387,6 +389,9 @@ std::vector<FeaturePoint> FeatureMap::Triangulate(const PoseMap& cam_from_world,
     std::vector<TrackRefinementReport> sample((first.size() + stride - 1) / stride);
     ParallelFor(sample.size(), threads, [&](size_t k) { refine(k * stride, 0.0, &sample[k]); });
     counts.epipolar_sigma_px = EpipolarSigmaPx(sample);
+    refinement.max_sigma_px =
+        std::max(refinement.max_sigma_px, options_.max_fit_sigma_per_epipolar_sigma * counts.epipolar_sigma_px);
+    counts.max_fit_sigma_px = refinement.max_sigma_px;
   }
   std::vector<FeatureTrack> refined(first.size());
   std::vector<TrackRefinementReport> reports(first.size());

@@ -143,6 +143,7 @@ void ReadFeatureMap(YamlFields f, FeatureMapOptions* o) {
   f.Read("refined_feature_sigma_px", &o->refined_feature_sigma_px);
   f.Read("keep_unrefined_views", &o->keep_unrefined_views);
   f.Read("epipolar_fallback", &o->epipolar_fallback);
+  f.Read("max_fit_sigma_per_epipolar_sigma", &o->max_fit_sigma_per_epipolar_sigma);
   f.Read("max_neighbours", &o->max_neighbours);
   f.Read("min_overlap", &o->min_overlap);
   f.Read("max_view_angle_deg", &o->max_view_angle_deg);

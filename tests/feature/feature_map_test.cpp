@@ -30,6 +30,11 @@ TEST(FeatureMap, OptionsAndInputAreChecked) {
   auto bad = FeatureMap::Create(camera, options);
   ASSERT_FALSE(bad.has_value());
   EXPECT_NE(bad.error().message.find("max_neighbours"), std::string::npos);
+  options.max_neighbours = 8;
+  options.max_fit_sigma_per_epipolar_sigma = -1;
+  bad = FeatureMap::Create(camera, options);
+  ASSERT_FALSE(bad.has_value());
+  EXPECT_NE(bad.error().message.find("max_fit_sigma_per_epipolar_sigma"), std::string::npos);
   auto map = FeatureMap::Create(camera, {});
   ASSERT_TRUE(map.has_value());
   KeyframeFeatures empty;
@@ -63,6 +68,17 @@ struct WalkResult {
   double epipolar_sigma_true_px = 0, epipolar_sigma_turned_px = 0;
   int conflicts = 0;
 };
+
+// Every camera turned by 2 mrad (~1 px at f = 500) about an axis of its
+// own: poses a little off the scene, as real photo sets' are.
+PoseMap TurnedBy2Mrad(const PoseMap& poses) {
+  PoseMap turned = poses;
+  for (auto& [frame, pose] : turned) {
+    const Eigen::Vector3d axis = Eigen::Vector3d(std::sin(1.7 * double(frame)), std::cos(2.3 * double(frame)), 0.5).normalized();
+    pose.rotation = Eigen::Quaterniond(Eigen::AngleAxisd(2e-3, axis)) * pose.rotation;
+  }
+  return turned;
+}
 
 // Renders a box walk, feeds every frame as a keyframe with its true pose and
 // the depth range of the true targets in view (median x/ 2), and scores the
@@ -119,11 +135,7 @@ WalkResult RunWalk(const synth::SynthOptions& synth_options, bool shuffled) {
   FeatureTriangulationStats stats;
   const std::vector<FeaturePoint> points = map->Triangulate(poses, camera, 1, &stats);
   r.epipolar_sigma_true_px = stats.epipolar_sigma_px;
-  PoseMap turned = poses;
-  for (auto& [frame, pose] : turned) {
-    const Eigen::Vector3d axis = Eigen::Vector3d(std::sin(1.7 * double(frame)), std::cos(2.3 * double(frame)), 0.5).normalized();
-    pose.rotation = Eigen::Quaterniond(Eigen::AngleAxisd(2e-3, axis)) * pose.rotation;
-  }
+  const PoseMap turned = TurnedBy2Mrad(poses);
   map->Triangulate(turned, camera, 1, &stats);
   r.epipolar_sigma_turned_px = stats.epipolar_sigma_px;
   // Threads share out the tracks, each independent: bit for bit the same points.
@@ -248,6 +260,69 @@ TEST(FeatureMapSlow, SmallBoxWalkPointsLieOnTheTrueSurfaces) {
     EXPECT_LT(r.epipolar_sigma_true_px, 0.15) << "seed " << seed;
     EXPECT_GT(r.epipolar_sigma_turned_px, 0.25) << "seed " << seed;
     EXPECT_LT(r.epipolar_sigma_turned_px, 2.0) << "seed " << seed;
+  }
+}
+
+// The fits' limit follows the epipolar lines' error where it is larger
+// than refinement.max_sigma_px (FeatureMapOptions::max_fit_sigma_per_epipolar_sigma):
+// a dim walk (noisier fits, so a larger spread across the lines) with its
+// true poses, and the same with every camera turned by 2 mrad (the lines
+// ~0.4 px off, as on real photo sets), triangulated with the rule and with
+// the fixed limit. The rule keeps more points; the ones it adds are located
+// no worse than the views' measured error, so the cloud's share within
+// 5 mm of the true surfaces may fall a little, not collapse.
+TEST(FeatureMapSlow, TheFitsLimitFollowsTheLinesError) {
+  synth::SynthOptions options;
+  options.frames = 10;
+  options.width = 640;
+  options.height = 360;
+  options.max_azimuth_deg = 35;
+  options.seed = 4;
+  options.brightness = 0.2;
+  options.distortion = {-0.05, 0.01, 0, 0};
+  testing::TempDir scratch;
+  const fs::path rec = scratch.path() / "rec";
+  ASSERT_TRUE(synth::WriteSyntheticRecording(options, rec).has_value());
+  auto reader = RecordingReader::Open(rec);
+  ASSERT_TRUE(reader.has_value());
+  const PoseMap poses = *ReadPosesCsv(rec / "ground_truth/poses.csv");
+  const auto surfaces = eval::ReadSceneYaml(rec / "ground_truth/scene.yaml");
+  ASSERT_TRUE(surfaces.has_value());
+  const CameraModel camera = *reader->info().camera;
+  FeatureMapOptions fixed_options;
+  fixed_options.max_fit_sigma_per_epipolar_sigma = 0;
+  auto following = FeatureMap::Create(camera, {});
+  auto fixed = FeatureMap::Create(camera, fixed_options);
+  ASSERT_TRUE(following.has_value() && fixed.has_value());
+  for (size_t i = 0; i < reader->entries().size(); ++i) {
+    auto frame = reader->LoadFrame(i);
+    ASSERT_TRUE(frame.has_value());
+    auto features = ExtractFeatures(frame->gray, cv::Mat(), DetectionSet{frame->index, {}}, {});
+    ASSERT_TRUE(features.has_value());
+    const DepthRange depth = DepthRange::Around(2.2, 2.0);  // the walk's 1.5-3 m
+    ASSERT_TRUE(fixed->AddKeyframe(*features, poses.at(frame->index), depth).has_value());
+    ASSERT_TRUE(following->AddKeyframe(std::move(*features), poses.at(frame->index), depth).has_value());
+  }
+  const PoseMap turned = TurnedBy2Mrad(poses);
+  const double fixed_limit = fixed_options.refinement.max_sigma_px;
+  for (const PoseMap* used : std::vector<const PoseMap*>{&poses, &turned}) {
+    const char* name = used == &poses ? "true poses" : "turned";
+    FeatureTriangulationStats with_rule, without;
+    const std::vector<FeaturePoint> more = following->Triangulate(*used, camera, 2, &with_rule);
+    const std::vector<FeaturePoint> fewer = fixed->Triangulate(*used, camera, 2, &without);
+    const auto within_5mm = [&](const std::vector<FeaturePoint>& points) {
+      double n = 0;
+      for (const FeaturePoint& p : points) n += eval::DistanceToSurfaces(*surfaces, p.position) <= 5e-3;
+      return points.empty() ? 0.0 : n / static_cast<double>(points.size());
+    };
+    std::printf("%s: lines' error %.3f px, limit %.3f px: %zu points, %.1f %% within 5 mm; fixed limit: %zu, %.1f %%\n",
+                name, with_rule.epipolar_sigma_px, with_rule.max_fit_sigma_px, more.size(), 100 * within_5mm(more),
+                fewer.size(), 100 * within_5mm(fewer));
+    EXPECT_DOUBLE_EQ(without.max_fit_sigma_px, fixed_limit) << name;
+    EXPECT_DOUBLE_EQ(with_rule.max_fit_sigma_px, std::max(fixed_limit, with_rule.epipolar_sigma_px)) << name;
+    ASSERT_GT(with_rule.epipolar_sigma_px, fixed_limit) << name << ": the scene no longer tests the rule";
+    EXPECT_GT(more.size(), 1.1 * static_cast<double>(fewer.size())) << name;
+    EXPECT_GT(within_5mm(more), within_5mm(fewer) - 0.05) << name;
   }
 }
 

@@ -48,6 +48,15 @@ struct FeatureMapOptions {
   // walk of real photos (edges of doors and frames) 1.5x the points, on the
   // rendered box walk 1 % more (docs/features.md).
   bool epipolar_fallback = true;
+  // With epipolar_fallback, a fit is refused above refinement.max_sigma_px
+  // or above this many times the lines' measured error, whichever is
+  // larger: where the poses and the lens put every view that far off the
+  // scene, a view located better from its grey values is no more accurate,
+  // and one located to that error at most is no more than sqrt 2 worse than
+  // the best. Rendered scenes (lines' error 0.05-0.07 px) keep the fixed
+  // limit; real photo sets (0.2-0.4 px) get theirs (docs/features.md).
+  // 0: the fixed limit everywhere.
+  double max_fit_sigma_per_epipolar_sigma = 1.0;
   int max_neighbours = 8;  // earlier keyframes a new one is matched with, most overlapping first
   // Share of the new keyframe's view (a grid of rays at its typical scene
   // depth) that must fall inside an earlier keyframe's image.

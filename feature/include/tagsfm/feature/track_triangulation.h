@@ -75,6 +75,7 @@ struct FeatureTriangulationStats {
   // The epipolar lines' error across themselves measured from the free
   // fits, px (0: not measured), and the views fitted along a line.
   double epipolar_sigma_px = 0;
+  double max_fit_sigma_px = 0;  // the fits' limit that follows from it (FeatureMapOptions), 0: not measured
   int line_fits = 0;
   int refinement_dropped = 0;
   TrackTriangulationStats final_pass;
