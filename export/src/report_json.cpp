@@ -34,6 +34,11 @@ std::string PointText(const ScaleBarPoint& p) {
   return p.corner < 0 ? std::to_string(p.tag) : std::to_string(p.tag) + ":" + std::to_string(p.corner);
 }
 
+// A known map (its tags held fixed) fixes the scale itself.
+bool HasKnownTags(const ReconstructionResult& result) {
+  return std::any_of(result.tags.begin(), result.tags.end(), [](const auto& t) { return t.second.known; });
+}
+
 // Where the scale comes from; sigma_rel is what `measure` adds to every
 // length's sigma (scale part = sigma_rel * length). With the scale from the
 // tag sizes, images_sigma_rel is how well the corners fix it (already in
@@ -55,7 +60,7 @@ nlohmann::json ScaleJson(const ReconstructionResult& result) {
                         {"factor", scale.scale},
                         {"sigma_rel", scale.sigma_rel},
                         {"scale_bars", bars}};
-  const bool known_map = std::any_of(result.tags.begin(), result.tags.end(), [](const auto& t) { return t.second.known; });
+  const bool known_map = HasKnownTags(result);
   std::optional<double> images;
   if (result.covariance && !known_map && scale.source == "tag sizes") images = MapScaleSigmaRel(result.Targets(), *result.covariance);
   out["images_sigma_rel"] = images ? nlohmann::json(*images) : nlohmann::json(nullptr);
@@ -101,7 +106,7 @@ void AddFramesAndTargets(const ReconstructionResult& result, const RunStats& sta
 // times the centre's distance from the anchor, as `measure` adds it to
 // distances. A known map fixes the scale itself, so it adds none.
 nlohmann::json TargetsJson(const ReconstructionResult& result) {
-  const bool known_map = std::any_of(result.tags.begin(), result.tags.end(), [](const auto& t) { return t.second.known; });
+  const bool known_map = HasKnownTags(result);
   const double scale_sigma_rel = known_map ? 0.0 : result.scale.sigma_rel;
   std::map<TagId, Eigen::Vector3d> centre_sigma;
   if (result.covariance) {
