@@ -402,6 +402,7 @@ std::vector<FeaturePoint> FeatureMap::Triangulate(const PoseMap& cam_from_world,
   counts.refinement_dropped = static_cast<int>(first.size() - refined.size());
   TrackTriangulationOptions final_pass = options_.triangulation;
   final_pass.feature_sigma_px = options_.refined_feature_sigma_px;
+  final_pass.covariance_floor_px = counts.max_fit_sigma_px;
   std::vector<FeaturePoint> points =
       TriangulateTracks(refined, cam_from_world, camera, final_pass, threads, &counts.final_pass);
   if (stats != nullptr) *stats = counts;

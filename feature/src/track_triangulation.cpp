@@ -18,6 +18,7 @@ Status TrackTriangulationOptions::Check() const {
   if (!(max_reprojection_rms_px > 0)) return MakeError("triangulation.max_reprojection_rms_px must be > 0");
   if (!(feature_sigma_px > 0)) return MakeError("triangulation.feature_sigma_px must be > 0");
   if (!(max_relative_sigma > 0)) return MakeError("triangulation.max_relative_sigma must be > 0");
+  if (!(covariance_floor_px >= 0)) return MakeError("triangulation.covariance_floor_px must be >= 0");
   if (max_iterations < 1) return MakeError("triangulation.max_iterations must be >= 1");
   return Status::Ok();
 }
@@ -134,7 +135,8 @@ std::optional<FeaturePoint> TriangulateOne(const FeatureTrack& track, std::vecto
   // 2n residuals, 3 parameters: the RMS underestimates the noise by that.
   // Weighted, it is the noise of a view of weight 1.
   const double weighted_rms = std::sqrt(weighted_sum_sq / n);
-  const double noise_px = std::max(weighted_rms * std::sqrt(2 * n / std::max(1.0, 2 * n - 3)), options.feature_sigma_px);
+  const double noise_px = std::max({weighted_rms * std::sqrt(2 * n / std::max(1.0, 2 * n - 3)), options.feature_sigma_px,
+                                    options.covariance_floor_px});
   const double sigma = noise_px / camera.fx;
   p.covariance = sigma * sigma * normal.inverse();
   Eigen::Vector3d rgb = Eigen::Vector3d::Zero();

@@ -48,6 +48,13 @@ struct TrackTriangulationOptions {
   // Largest axis of the predicted covariance (at feature_sigma_px) over the
   // distance to the nearest camera; wider is dropped (narrow rays).
   double max_relative_sigma = 2e-3;
+  // A higher floor of the noise behind the stored covariance only (not of
+  // the filter above), px: the views' error the data themselves show
+  // (FeatureMap sets the fits' limit, FeatureTriangulationStats::max_fit_sigma_px),
+  // so that a view's fit sigma, which knows nothing of the poses or of its
+  // own model error, does not make the point look better than the typical
+  // view allows. 0: feature_sigma_px alone.
+  double covariance_floor_px = 0;
   int max_iterations = 10;
 
   Status Check() const;  // names the wrong field
