@@ -69,6 +69,13 @@ struct WalkResult {
   int conflicts = 0;
 };
 
+// Share of the points within `distance` of the scene's true surfaces.
+double ShareWithin(const std::vector<FeaturePoint>& points, const std::vector<eval::SurfaceRectangle>& surfaces, double distance) {
+  double n = 0;
+  for (const FeaturePoint& p : points) n += eval::DistanceToSurfaces(surfaces, p.position) <= distance;
+  return points.empty() ? 0.0 : n / static_cast<double>(points.size());
+}
+
 // Every camera turned by 2 mrad (~1 px at f = 500) about an axis of its
 // own: poses a little off the scene, as real photo sets' are.
 PoseMap TurnedBy2Mrad(const PoseMap& poses) {
@@ -146,15 +153,8 @@ WalkResult RunWalk(const synth::SynthOptions& synth_options, bool shuffled) {
     EXPECT_EQ(threaded[i].position, points[i].position) << "track " << points[i].track;
   }
   r.points = static_cast<int>(points.size());
-  for (const FeaturePoint& p : points) {
-    const double d = eval::DistanceToSurfaces(*surfaces, p.position);
-    r.within_2mm += d <= 2e-3;
-    r.within_5mm += d <= 5e-3;
-  }
-  if (r.points > 0) {
-    r.within_2mm /= r.points;
-    r.within_5mm /= r.points;
-  }
+  r.within_2mm = ShareWithin(points, *surfaces, 2e-3);
+  r.within_5mm = ShareWithin(points, *surfaces, 5e-3);
   return r;
 }
 
@@ -310,11 +310,7 @@ TEST(FeatureMapSlow, TheFitsLimitFollowsTheLinesError) {
     FeatureTriangulationStats with_rule, without;
     const std::vector<FeaturePoint> more = following->Triangulate(*used, camera, 2, &with_rule);
     const std::vector<FeaturePoint> fewer = fixed->Triangulate(*used, camera, 2, &without);
-    const auto within_5mm = [&](const std::vector<FeaturePoint>& points) {
-      double n = 0;
-      for (const FeaturePoint& p : points) n += eval::DistanceToSurfaces(*surfaces, p.position) <= 5e-3;
-      return points.empty() ? 0.0 : n / static_cast<double>(points.size());
-    };
+    const auto within_5mm = [&](const std::vector<FeaturePoint>& points) { return ShareWithin(points, *surfaces, 5e-3); };
     std::printf("%s: lines' error %.3f px, limit %.3f px: %zu points, %.1f %% within 5 mm; fixed limit: %zu, %.1f %%\n",
                 name, with_rule.epipolar_sigma_px, with_rule.max_fit_sigma_px, more.size(), 100 * within_5mm(more),
                 fewer.size(), 100 * within_5mm(fewer));
