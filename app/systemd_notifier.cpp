@@ -45,12 +45,15 @@ SystemdNotifier::~SystemdNotifier() {
   if (pinger_.joinable()) pinger_.join();
 }
 
+// READY=1 goes out before the pinger may send its first WATCHDOG=1.
 void SystemdNotifier::Ready(const std::string& status) {
+  Notify("READY=1\nSTATUS=" + OneLine(status));
   {
     std::lock_guard<std::mutex> lock(mutex_);
     last_progress_ = last_status_ = Clock::now();
+    ready_ = true;
   }
-  Notify("READY=1\nSTATUS=" + OneLine(status));
+  wake_.notify_all();
 }
 
 void SystemdNotifier::Progress(const std::string& status) {
@@ -69,13 +72,15 @@ void SystemdNotifier::Stopping(const std::string& status) {
     std::lock_guard<std::mutex> lock(mutex_);
     stopping_ = true;
   }
+  wake_.notify_all();
   Notify("STOPPING=1\nSTATUS=" + OneLine(status));
 }
 
-// Pings while the capture makes progress, and always once it is stopping
-// (the final adjustment may take longer than the watchdog period).
+// Pings from READY=1 on while the capture makes progress, and always once it
+// is stopping (the final adjustment may take longer than the watchdog period).
 void SystemdNotifier::Ping() {
   std::unique_lock<std::mutex> lock(mutex_);
+  wake_.wait(lock, [this] { return ready_ || stopping_ || done_; });
   while (!done_) {
     if (stopping_ || Clock::now() - last_progress_ < stall_limit_) {
       lock.unlock();

@@ -35,6 +35,7 @@ class SystemdNotifier {
   std::chrono::milliseconds stall_limit_;
   std::mutex mutex_;
   std::condition_variable wake_;
+  bool ready_ = false;
   bool stopping_ = false;
   bool done_ = false;
   std::chrono::steady_clock::time_point last_progress_, last_status_;
