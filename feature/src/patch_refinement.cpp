@@ -13,6 +13,9 @@ Status PatchRefinementOptions::Check() const {
   if (half_window < 2 || half_window > 32) return MakeError("refinement.half_window must be in [2, 32]");
   if (max_iterations < 1) return MakeError("refinement.max_iterations must be >= 1");
   if (!(converged_px > 0)) return MakeError("refinement.converged_px must be > 0");
+  if (!(converged_sigma_fraction >= 0 && converged_sigma_fraction <= 1)) {
+    return MakeError("refinement.converged_sigma_fraction must be in [0, 1]");
+  }
   if (!(max_shift_px > 0)) return MakeError("refinement.max_shift_px must be > 0");
   if (!(min_correlation >= -1 && min_correlation <= 1)) return MakeError("refinement.min_correlation must be in [-1, 1]");
   if (!(max_sigma_px > 0)) return MakeError("refinement.max_sigma_px must be > 0");
@@ -190,6 +193,7 @@ std::optional<PatchFit> RefinePatch(const cv::Mat& reference, const Eigen::Vecto
   double gain = 1, offset = 0;
   Matrix8d normal;
   bool converged = false;
+  double last_step_px = 0;
   for (fit.iterations = 1; fit.iterations <= options.max_iterations; ++fit.iterations) {
     if (!patch.Linearise(target, fit.warp, gain, offset)) return std::nullopt;
     normal = patch.NormalMatrix();
@@ -212,13 +216,23 @@ std::optional<PatchFit> RefinePatch(const cv::Mat& reference, const Eigen::Vecto
     if (!delta.allFinite()) return std::nullopt;
     ApplyStep(delta, &fit.warp, &gain, &offset);
     if ((fit.warp.centre - start.centre).norm() > options.max_shift_px || !(gain > 0.2 && gain < 5)) return std::nullopt;
-    if (delta.head<2>().norm() < options.converged_px) {
+    last_step_px = delta.head<2>().norm();
+    if (last_step_px < options.converged_px) {
       converged = true;
       break;
     }
   }
-  if (!converged) return std::nullopt;
+  if (!converged) {
+    // Out of iterations: still converged if the last step was a small part
+    // of the fit's own sigma (early on, the misaligned patches' residuals
+    // inflate that sigma, so the rule would stop fits too soon).
+    fit.iterations = options.max_iterations;
+    const double noise_sigma_px = line ? patch.LineSigmaPx(normal, line->direction, 0.0) : patch.CentreSigmaPx(normal);
+    if (!(last_step_px < options.converged_sigma_fraction * noise_sigma_px)) return std::nullopt;
+  }
   fit.sigma_px = line ? patch.LineSigmaPx(normal, line->direction, line->across_sigma_px) : patch.CentreSigmaPx(normal);
+  // What the last step left unresolved counts in the fit's sigma.
+  if (!converged) fit.sigma_px = std::hypot(fit.sigma_px, last_step_px);
   fit.correlation = Correlation(patch.templ, patch.warped);
   if (!(fit.sigma_px <= options.max_sigma_px) || !(fit.correlation >= options.min_correlation)) return std::nullopt;
   return fit;

@@ -160,6 +160,57 @@ TEST(PatchRefinement, FindsExactWarpsToHundredthsOfAPixel) {
   }
 }
 
+// Gauss-Newton on bilinearly sampled, noisy grey values need not settle
+// to converged_px: the cost has kinks at the pixel borders. A fit out of
+// iterations counts when its last step is a small part of its own sigma
+// (which then holds the step too). Here converged_px is out of reach
+// (1e-9 px) on noisy patches: the fits that end by the sigma rule must lie
+// where the same fit settles given 50 iterations and the usual 0.01 px, to
+// well within their sigma; without the rule few fits end at all.
+TEST(PatchRefinement, AFitOutOfIterationsCountsWhenItsLastStepIsSmallAgainstItsSigma) {
+  const std::vector<Case> cases = {
+      {3, 1.0, 6, 0, 1, 0, 1, 0},
+      {4, 1.0, 5, 8, 1.1, 0.05, 0.85, 25},
+  };
+  PatchRefinementOptions by_sigma;
+  by_sigma.converged_px = 1e-9;
+  PatchRefinementOptions absolute_only = by_sigma;
+  absolute_only.converged_sigma_fraction = 0;
+  PatchRefinementOptions settled;
+  settled.max_iterations = 50;
+  for (const Case& c : cases) {
+    int accepted = 0, accepted_absolute = 0;
+    double worst_ratio = 0;
+    constexpr int kSeeds = 32;
+    for (unsigned seed = 0; seed < kSeeds; ++seed) {
+      const std::vector<Blob> blobs = Blurred(MakeTexture(c.blob_px, 500 + seed, 40), c.blur);
+      const double r = c.rotation_deg * M_PI / 180;
+      Eigen::Matrix2d a;
+      a << c.scale * std::cos(r), -c.scale * std::sin(r) + c.shear, c.scale * std::sin(r), c.scale * std::cos(r);
+      const Eigen::Matrix2d a_inv = a.inverse();
+      const Eigen::Vector2d ref_centre(31.3, 32.6), target_centre(30.8, 31.1), to_texture(-32, -32);
+      const cv::Mat reference = Render(blobs, 64, Eigen::Matrix2d::Identity(), to_texture, 1, 0, c.noise, 600 + seed);
+      const cv::Mat target =
+          Render(blobs, 64, a_inv, ref_centre - a_inv * target_centre + to_texture, c.gain, c.offset, c.noise, 700 + seed);
+      PatchWarp start;
+      start.centre = target_centre + Eigen::Vector2d(0.5, -0.5);
+      start.affine = a;
+      if (RefinePatch(reference, ref_centre, target, start, absolute_only)) ++accepted_absolute;
+      const auto fit = RefinePatch(reference, ref_centre, target, start, by_sigma);
+      if (!fit) continue;
+      ++accepted;
+      const auto reference_fit = RefinePatch(reference, ref_centre, target, start, settled);
+      ASSERT_TRUE(reference_fit.has_value()) << "seed " << seed << ": settles with more iterations";
+      worst_ratio = std::max(worst_ratio, (fit->warp.centre - reference_fit->warp.centre).norm() / fit->sigma_px);
+    }
+    std::cout << "noise " << c.noise << ": " << accepted << " of " << kSeeds << " fits by the sigma rule (" << accepted_absolute
+              << " without it), worst distance from the settled fit " << worst_ratio << " sigma\n";
+    EXPECT_GE(accepted, kSeeds * 3 / 4) << "noise " << c.noise;
+    EXPECT_LE(accepted_absolute, kSeeds / 4) << "noise " << c.noise;
+    EXPECT_LT(worst_ratio, 0.5) << "noise " << c.noise;
+  }
+}
+
 // A patch of another texture is refused (correlation), as is a flat patch
 // (the centre is not located: its predicted sigma is large).
 TEST(PatchRefinement, RefusesWrongAndFlatPatches) {
@@ -243,6 +294,9 @@ TEST(PatchRefinement, OptionsAndPatchesNearTheBorderAreChecked) {
   PatchRefinementOptions options;
   options.half_window = 1;
   EXPECT_NE(options.Check().error().message.find("half_window"), std::string::npos);
+  options = {};
+  options.converged_sigma_fraction = 1.5;
+  EXPECT_NE(options.Check().error().message.find("converged_sigma_fraction"), std::string::npos);
   const cv::Mat image(40, 40, CV_8U, cv::Scalar(100));
   PatchWarp start;
   start.centre = {20, 20};

@@ -22,6 +22,13 @@ struct PatchRefinementOptions {
   // an iteration, so what is left is ~0.003 px, a tenth of a good fit's
   // own sigma (docs/features.md: 0.005 cost 10 % more fit time, same points).
   double converged_px = 0.01;
+  // A fit out of iterations still counts when its last step was under this
+  // fraction of its own sigma (the classical adjustment's rule: corrections
+  // below their precision), the step then added to that sigma. On a noisy
+  // or plain patch Gauss-Newton keeps stepping by hundredths of a pixel
+  // about a minimum its noise leaves uncertain by tenths, and never
+  // reaches converged_px (docs/features.md). 0: converged_px alone.
+  double converged_sigma_fraction = 0.25;
   // Furthest the fitted centre may move from where it started: beyond, the
   // match was wrong or the fit ran off along an edge.
   double max_shift_px = 2.0;
