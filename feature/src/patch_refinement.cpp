@@ -20,6 +20,7 @@ Status PatchRefinementOptions::Check() const {
   if (!(min_correlation >= -1 && min_correlation <= 1)) return MakeError("refinement.min_correlation must be in [-1, 1]");
   if (!(max_sigma_px > 0)) return MakeError("refinement.max_sigma_px must be > 0");
   if (max_level < 0 || max_level > 6) return MakeError("refinement.max_level must be in [0, 6]");
+  if (reference_attempts < 1) return MakeError("refinement.reference_attempts must be >= 1");
   return Status::Ok();
 }
 

@@ -128,6 +128,7 @@ void ReadRefinement(YamlFields f, PatchRefinementOptions* o) {
   f.Read("max_iterations", &o->max_iterations);
   f.Read("converged_px", &o->converged_px);
   f.Read("converged_sigma_fraction", &o->converged_sigma_fraction);
+  f.Read("reference_attempts", &o->reference_attempts);
   f.Read("max_shift_px", &o->max_shift_px);
   f.Read("min_correlation", &o->min_correlation);
   f.Read("max_sigma_px", &o->max_sigma_px);

@@ -297,6 +297,9 @@ TEST(PatchRefinement, OptionsAndPatchesNearTheBorderAreChecked) {
   options = {};
   options.converged_sigma_fraction = 1.5;
   EXPECT_NE(options.Check().error().message.find("converged_sigma_fraction"), std::string::npos);
+  options = {};
+  options.reference_attempts = 0;
+  EXPECT_NE(options.Check().error().message.find("reference_attempts"), std::string::npos);
   const cv::Mat image(40, 40, CV_8U, cv::Scalar(100));
   PatchWarp start;
   start.centre = {20, 20};
@@ -397,6 +400,60 @@ TEST(TrackRefinement, ARefusedFitKeepsItsPixelAtTheDetectorsNoise) {
   two.observations.erase(two.observations.begin());
   point.observations.erase(point.observations.begin());
   EXPECT_TRUE(refine(none_fit, 0.5, two).observations.empty());
+}
+
+// When the reference view (nearest the mean viewing direction) fits none
+// of the others (here its image is flat: blurred out, say), the track is
+// lost with one reference; with two, the next view nearest the mean
+// direction is the reference, and the track is kept if three views are
+// left. Each view's SIFT pixel is 0.3 px off its projection, so each fitted
+// view, which sees the surface point of the reference's pixel, is too.
+TEST(TrackRefinement, ATrackWhoseReferenceFitsNothingTriesTheNextView) {
+  const CameraModel camera = testing::PinholeCamera(64, 64, 100, 31.5, 31.5);
+  const double depth = 2.0, step = 0.02;
+  const std::vector<Blob> texture = Blurred(MakeTexture(3, 12, 40), 0.7);
+  const Eigen::Vector3d truth((31.3 - 31.5) * depth / 100 + step, (32.6 - 31.5) * depth / 100, depth);
+  PoseMap poses;
+  Eigen::Vector3d mean_direction = Eigen::Vector3d::Zero();
+  for (FrameId k = 0; k < 4; ++k) {
+    poses[k] = Rigid3d(Eigen::Quaterniond::Identity(), Eigen::Vector3d(-step * static_cast<double>(k), 0, 0));
+    mean_direction += (poses[k].Center() - truth).normalized();
+  }
+  // The first reference: the view nearest the mean viewing direction.
+  FrameId first = 0;
+  for (FrameId k = 1; k < 4; ++k) {
+    if ((poses[k].Center() - truth).normalized().dot(mean_direction) >
+        (poses[first].Center() - truth).normalized().dot(mean_direction)) {
+      first = k;
+    }
+  }
+  std::map<FrameId, cv::Mat> images;
+  for (FrameId k = 0; k < 4; ++k) {
+    const double t = step * static_cast<double>(k);
+    images[k] = k == first ? Render({}, 64, Eigen::Matrix2d::Identity(), {0, 0}, 1, 0, 1, 41)
+                           : Render(texture, 64, Eigen::Matrix2d::Identity(), {-31.5 + 100 * t / depth, -31.5}, 1, 0, 1, 40 + k);
+  }
+  const KeyframeImageLookup image_of = [&](FrameId frame, int level) { return level == 0 ? &images.at(frame) : nullptr; };
+  const TrackAndPoint sift = SiftTrack(8, truth, poses, camera, [](FrameId) { return Eigen::Vector2d(0.3, 0); });
+  PatchRefinementOptions one_reference;
+  one_reference.reference_attempts = 1;
+  EXPECT_TRUE(RefineTrackViews(sift.track, sift.point, poses, image_of, camera, one_reference).observations.empty());
+  const PatchRefinementOptions two_references;  // the default
+  ASSERT_EQ(two_references.reference_attempts, 2);
+  const FeatureTrack refined = RefineTrackViews(sift.track, sift.point, poses, image_of, camera, two_references);
+  ASSERT_EQ(refined.observations.size(), 3u);
+  for (const TrackObservation& o : refined.observations) {
+    EXPECT_NE(o.frame, first);
+    const Eigen::Vector2d off = o.pixel - camera.Project(poses[o.frame] * truth);
+    EXPECT_LT((off - Eigen::Vector2d(0.3, 0)).norm(), 0.1) << "frame " << o.frame;
+  }
+  // Without the textured view farthest from the flat one (which stays the
+  // first reference), the two left fit only each other: not kept.
+  TrackAndPoint three = sift;
+  const FrameId dropped = first <= 1 ? 3 : 0;
+  three.track.observations.erase(three.track.observations.begin() + static_cast<std::ptrdiff_t>(dropped));
+  three.point.observations.erase(three.point.observations.begin() + static_cast<std::ptrdiff_t>(dropped));
+  EXPECT_TRUE(RefineTrackViews(three.track, three.point, poses, image_of, camera, two_references).observations.empty());
 }
 
 // Three cameras side by side over a plane with one straight edge on it,

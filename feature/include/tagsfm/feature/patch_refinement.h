@@ -48,6 +48,11 @@ struct PatchRefinementOptions {
   // fit comes back in full-image pixels, its sigma with it.
   bool balance_scale = true;
   int max_level = 3;
+  // A track whose views do not fit its reference (fewer than two left) is
+  // fitted again to the next view nearest the mean viewing direction, up to
+  // this many references in all; kept that way with three views or more
+  // (track_refinement.h).
+  int reference_attempts = 2;
 
   Status Check() const;  // names the wrong field
 };
