@@ -223,17 +223,17 @@ std::optional<PatchFit> RefinePatch(const cv::Mat& reference, const Eigen::Vecto
       break;
     }
   }
+  fit.sigma_px = line ? patch.LineSigmaPx(normal, line->direction, line->across_sigma_px) : patch.CentreSigmaPx(normal);
   if (!converged) {
     // Out of iterations: still converged if the last step was a small part
-    // of the fit's own sigma (early on, the misaligned patches' residuals
-    // inflate that sigma, so the rule would stop fits too soon).
+    // of the fit's own sigma from its grey values (early on, the misaligned
+    // patches' residuals inflate that sigma, so the rule would stop fits too
+    // soon); what that step left unresolved then counts in the sigma.
     fit.iterations = options.max_iterations;
-    const double noise_sigma_px = line ? patch.LineSigmaPx(normal, line->direction, 0.0) : patch.CentreSigmaPx(normal);
+    const double noise_sigma_px = line ? patch.LineSigmaPx(normal, line->direction, 0.0) : fit.sigma_px;
     if (!(last_step_px < options.converged_sigma_fraction * noise_sigma_px)) return std::nullopt;
+    fit.sigma_px = std::hypot(fit.sigma_px, last_step_px);
   }
-  fit.sigma_px = line ? patch.LineSigmaPx(normal, line->direction, line->across_sigma_px) : patch.CentreSigmaPx(normal);
-  // What the last step left unresolved counts in the fit's sigma.
-  if (!converged) fit.sigma_px = std::hypot(fit.sigma_px, last_step_px);
   fit.correlation = Correlation(patch.templ, patch.warped);
   if (!(fit.sigma_px <= options.max_sigma_px) || !(fit.correlation >= options.min_correlation)) return std::nullopt;
   return fit;
