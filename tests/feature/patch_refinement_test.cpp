@@ -5,6 +5,7 @@
 // position of the reference pixel from a start 0.7 px and several percent
 // of affine away.
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <functional>
 #include <iostream>
@@ -89,30 +90,41 @@ struct Case {
   double gain, offset;
 };
 
+// One case's two images: the texture from `seed`, the reference's and the
+// target's noise from the next two seeds of `noise_seeds`. Reference: pixel x sees texture point x - 32. Target: pixel y
+// sees the texture point of reference pixel p = c_ref + A^-1 (y - c_t).
+struct PatchPair {
+  cv::Mat reference, target;
+  Eigen::Vector2d ref_centre{31.3, 32.6}, target_centre{30.8, 31.1};
+  Eigen::Matrix2d affine;  // A: the true warp
+};
+
+PatchPair MakePatchPair(const Case& c, unsigned seed, std::array<unsigned, 2> noise_seeds) {
+  constexpr int kSize = 64;
+  PatchPair pair;
+  const std::vector<Blob> blobs = Blurred(MakeTexture(c.blob_px, seed, 40), c.blur);
+  const double r = c.rotation_deg * M_PI / 180;
+  pair.affine << c.scale * std::cos(r), -c.scale * std::sin(r) + c.shear, c.scale * std::sin(r), c.scale * std::cos(r);
+  const Eigen::Matrix2d a_inv = pair.affine.inverse();
+  const Eigen::Vector2d to_texture(-32, -32);
+  pair.reference = Render(blobs, kSize, Eigen::Matrix2d::Identity(), to_texture, 1, 0, c.noise, noise_seeds[0]);
+  pair.target = Render(blobs, kSize, a_inv, pair.ref_centre - a_inv * pair.target_centre + to_texture, c.gain, c.offset,
+                       c.noise, noise_seeds[1]);
+  return pair;
+}
+
 // Error of the fitted centre against the truth, or -1 when the fit was
 // refused (default options).
 double FitError(const Case& c, unsigned seed) {
-  constexpr int kSize = 64;
-  const std::vector<Blob> blobs = Blurred(MakeTexture(c.blob_px, seed, 40), c.blur);
-  // Reference: pixel x sees texture point x - 32. Target: pixel y sees the
-  // texture point of reference pixel p = c_ref + A^-1 (y - c_t).
-  const Eigen::Vector2d ref_centre(31.3, 32.6), target_centre(30.8, 31.1);
-  const double r = c.rotation_deg * M_PI / 180;
-  Eigen::Matrix2d a;
-  a << c.scale * std::cos(r), -c.scale * std::sin(r) + c.shear, c.scale * std::sin(r), c.scale * std::cos(r);
-  const Eigen::Matrix2d a_inv = a.inverse();
-  const Eigen::Vector2d to_texture(-32, -32);
-  const cv::Mat reference = Render(blobs, kSize, Eigen::Matrix2d::Identity(), to_texture, 1, 0, c.noise, seed + 1);
-  const cv::Mat target =
-      Render(blobs, kSize, a_inv, ref_centre - a_inv * target_centre + to_texture, c.gain, c.offset, c.noise, seed + 2);
+  const PatchPair pair = MakePatchPair(c, seed, {seed + 1, seed + 2});
   PatchWarp start;
-  start.centre = target_centre + Eigen::Vector2d(0.5, -0.5);  // 0.7 px off
+  start.centre = pair.target_centre + Eigen::Vector2d(0.5, -0.5);  // 0.7 px off
   Eigen::Matrix2d off;
   off << 1.04, 0.03, -0.02, 0.97;  // the predicted warp a few percent wrong
-  start.affine = a * off;
-  const std::optional<PatchFit> fit = RefinePatch(reference, ref_centre, target, start, {});
+  start.affine = pair.affine * off;
+  const std::optional<PatchFit> fit = RefinePatch(pair.reference, pair.ref_centre, pair.target, start, {});
   if (!fit) return -1;
-  return (fit->warp.centre - target_centre).norm();
+  return (fit->warp.centre - pair.target_centre).norm();
 }
 
 // Over textures, blurs, noise levels and warps: the localisation the
@@ -183,23 +195,18 @@ TEST(PatchRefinement, AFitOutOfIterationsCountsWhenItsLastStepIsSmallAgainstItsS
     double worst_ratio = 0;
     constexpr int kSeeds = 32;
     for (unsigned seed = 0; seed < kSeeds; ++seed) {
-      const std::vector<Blob> blobs = Blurred(MakeTexture(c.blob_px, 500 + seed, 40), c.blur);
-      const double r = c.rotation_deg * M_PI / 180;
-      Eigen::Matrix2d a;
-      a << c.scale * std::cos(r), -c.scale * std::sin(r) + c.shear, c.scale * std::sin(r), c.scale * std::cos(r);
-      const Eigen::Matrix2d a_inv = a.inverse();
-      const Eigen::Vector2d ref_centre(31.3, 32.6), target_centre(30.8, 31.1), to_texture(-32, -32);
-      const cv::Mat reference = Render(blobs, 64, Eigen::Matrix2d::Identity(), to_texture, 1, 0, c.noise, 600 + seed);
-      const cv::Mat target =
-          Render(blobs, 64, a_inv, ref_centre - a_inv * target_centre + to_texture, c.gain, c.offset, c.noise, 700 + seed);
+      const PatchPair pair = MakePatchPair(c, 500 + seed, {600 + seed, 700 + seed});
       PatchWarp start;
-      start.centre = target_centre + Eigen::Vector2d(0.5, -0.5);
-      start.affine = a;
-      if (RefinePatch(reference, ref_centre, target, start, absolute_only)) ++accepted_absolute;
-      const auto fit = RefinePatch(reference, ref_centre, target, start, by_sigma);
+      start.centre = pair.target_centre + Eigen::Vector2d(0.5, -0.5);
+      start.affine = pair.affine;
+      const auto fit_with = [&](const PatchRefinementOptions& options) {
+        return RefinePatch(pair.reference, pair.ref_centre, pair.target, start, options);
+      };
+      if (fit_with(absolute_only)) ++accepted_absolute;
+      const auto fit = fit_with(by_sigma);
       if (!fit) continue;
       ++accepted;
-      const auto reference_fit = RefinePatch(reference, ref_centre, target, start, settled);
+      const auto reference_fit = fit_with(settled);
       ASSERT_TRUE(reference_fit.has_value()) << "seed " << seed << ": settles with more iterations";
       worst_ratio = std::max(worst_ratio, (fit->warp.centre - reference_fit->warp.centre).norm() / fit->sigma_px);
     }
