@@ -221,9 +221,18 @@ FeatureTrack RefineTrackViews(const FeatureTrack& track, const FeaturePoint& poi
   });
   const size_t attempts = std::min(order.size(), static_cast<size_t>(options.reference_attempts));
   for (size_t k = 0; k < attempts; ++k) {
+    TrackRefinementReport attempt;
     out = RefineAgainst(views, order[k], track, point, mean_direction, image_of, camera, options, unrefined_sigma_px,
-                        epipolar_sigma_px, report);
-    if (out.observations.size() >= (k == 0 ? 2u : 3u)) break;
+                        epipolar_sigma_px, report != nullptr ? &attempt : nullptr);
+    const bool kept = out.observations.size() >= (k == 0 ? 2u : 3u);
+    // A discarded attempt's free fits still measure the lines' error; its
+    // line fits are not in the track, so they are not counted.
+    if (report != nullptr) {
+      report->across_epipolar_px.insert(report->across_epipolar_px.end(), attempt.across_epipolar_px.begin(),
+                                        attempt.across_epipolar_px.end());
+      if (kept) report->line_fits += attempt.line_fits;
+    }
+    if (kept) break;
     out.observations.clear();
   }
   return out;

@@ -497,6 +497,36 @@ TEST(TrackRefinement, AnEdgeIsFittedAlongTheEpipolarLines) {
   }
 }
 
+// The edge scene with the middle view (the first reference) flat: the
+// second reference, an end view, fits the other end along its line but
+// not the flat one, so its two views are discarded, and the line fit
+// that was made for them is not counted.
+TEST(TrackRefinement, ADiscardedReferenceAttemptsLineFitsAreNotCounted) {
+  const CameraModel camera = testing::PinholeCamera(64, 64, 100, 31.5, 31.5);
+  const double depth = 2.0, step = 0.02;
+  PoseMap poses;
+  for (FrameId k = 0; k < 3; ++k) poses[k] = Rigid3d(Eigen::Quaterniond::Identity(), Eigen::Vector3d(-step * double(k), 0, 0));
+  const Eigen::Vector3d truth(-0.004 + step, 0.022, depth);
+  std::map<FrameId, cv::Mat> images;
+  for (FrameId k = 0; k < 3; ++k) {
+    images[k] = k == 1 ? Render({}, 64, Eigen::Matrix2d::Identity(), {0, 0}, 1, 0, 1, 61)
+                       : RenderEdge(64, camera.Project(poses[k] * truth), 45.0, 1.0, 2, 60 + static_cast<unsigned>(k));
+  }
+  const KeyframeImageLookup image_of = [&](FrameId frame, int level) { return level == 0 ? &images.at(frame) : nullptr; };
+  const TrackAndPoint sift = SiftTrack(5, truth, poses, camera, [](FrameId k) { return Eigen::Vector2d(k == 1 ? 0 : 0.4, 0); });
+  // With the middle view an edge like the others, the middle reference
+  // fits the ends, along the line where the free fit slides, and counts it.
+  std::map<FrameId, cv::Mat> textured = images;
+  textured[1] = RenderEdge(64, camera.Project(poses[1] * truth), 45.0, 1.0, 2, 62);
+  const KeyframeImageLookup textured_of = [&](FrameId frame, int level) { return level == 0 ? &textured.at(frame) : nullptr; };
+  TrackRefinementReport kept;
+  ASSERT_EQ(RefineTrackViews(sift.track, sift.point, poses, textured_of, camera, {}, 0.0, 0.02, &kept).observations.size(), 3u);
+  EXPECT_GE(kept.line_fits, 1);
+  TrackRefinementReport discarded;
+  EXPECT_TRUE(RefineTrackViews(sift.track, sift.point, poses, image_of, camera, {}, 0.0, 0.02, &discarded).observations.empty());
+  EXPECT_EQ(discarded.line_fits, 0);
+}
+
 // A walk that comes closer and backs off: one camera sees the textured
 // plane from half the reference distance (the patch twice as large), one
 // from twice it (half as large), beside a camera at the same distance.

@@ -33,7 +33,7 @@ struct TrackRefinementReport {
   // Each free fit's signed distance across its reference pixel's epipolar
   // line, px: the poses' and the lens' error there, and the fit's noise.
   std::vector<double> across_epipolar_px;
-  int line_fits = 0;  // views fitted along the line after their free fit was refused
+  int line_fits = 0;  // views of the kept track fitted along the line after their free fit was refused
 };
 
 // `track`'s views that are in `point` (a first triangulation of it), each
