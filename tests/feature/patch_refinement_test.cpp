@@ -173,12 +173,14 @@ TEST(PatchRefinement, FindsExactWarpsToHundredthsOfAPixel) {
 }
 
 // Gauss-Newton on bilinearly sampled, noisy grey values need not settle
-// to converged_px: the cost has kinks at the pixel borders. A fit out of
-// iterations counts when its last step is a small part of its own sigma
-// (which then holds the step too). Here converged_px is out of reach
-// (1e-9 px) on noisy patches: the fits that end by the sigma rule must lie
-// where the same fit settles given 50 iterations and the usual 0.01 px, to
-// well within their sigma; without the rule few fits end at all.
+// A fit that has used up its iterations without a step under converged_px
+// counts when its last step is a small part of its own sigma (which then
+// holds the step too). Here converged_px is out of reach (1e-9 px) on
+// noisy patches, so most fits end by the rule: each must lie where the
+// same fit settles given 50 iterations and the usual 0.01 px, to a small
+// part of its sigma (median), and the fits stopped by the rule must be as
+// far from the truth as the settled ones (RMS of error / sigma within 5 %);
+// without the rule few fits end at all.
 TEST(PatchRefinement, AFitOutOfIterationsCountsWhenItsLastStepIsSmallAgainstItsSigma) {
   const std::vector<Case> cases = {
       {3, 1.0, 6, 0, 1, 0, 1, 0},
@@ -192,7 +194,8 @@ TEST(PatchRefinement, AFitOutOfIterationsCountsWhenItsLastStepIsSmallAgainstItsS
   settled.max_iterations = 50;
   for (const Case& c : cases) {
     int accepted = 0, accepted_absolute = 0;
-    double worst_ratio = 0;
+    std::vector<double> from_settled;  // distance to the settled fit / sigma
+    double stopped_sq = 0, settled_sq = 0;  // (error against the truth / sigma)^2
     constexpr int kSeeds = 32;
     for (unsigned seed = 0; seed < kSeeds; ++seed) {
       const PatchPair pair = MakePatchPair(c, 500 + seed, {600 + seed, 700 + seed});
@@ -208,13 +211,21 @@ TEST(PatchRefinement, AFitOutOfIterationsCountsWhenItsLastStepIsSmallAgainstItsS
       ++accepted;
       const auto reference_fit = fit_with(settled);
       ASSERT_TRUE(reference_fit.has_value()) << "seed " << seed << ": settles with more iterations";
-      worst_ratio = std::max(worst_ratio, (fit->warp.centre - reference_fit->warp.centre).norm() / fit->sigma_px);
+      from_settled.push_back((fit->warp.centre - reference_fit->warp.centre).norm() / fit->sigma_px);
+      stopped_sq += std::pow((fit->warp.centre - pair.target_centre).norm() / fit->sigma_px, 2);
+      settled_sq += std::pow((reference_fit->warp.centre - pair.target_centre).norm() / reference_fit->sigma_px, 2);
     }
+    ASSERT_FALSE(from_settled.empty());
+    std::sort(from_settled.begin(), from_settled.end());
+    const double median = from_settled[from_settled.size() / 2];
+    const double error_ratio = std::sqrt(stopped_sq / settled_sq);
     std::cout << "noise " << c.noise << ": " << accepted << " of " << kSeeds << " fits by the sigma rule (" << accepted_absolute
-              << " without it), worst distance from the settled fit " << worst_ratio << " sigma\n";
+              << " without it), from the settled fit " << median << " sigma median, " << from_settled.back()
+              << " worst; error / sigma against the settled fits' " << error_ratio << "\n";
     EXPECT_GE(accepted, kSeeds * 3 / 4) << "noise " << c.noise;
     EXPECT_LE(accepted_absolute, kSeeds / 4) << "noise " << c.noise;
-    EXPECT_LT(worst_ratio, 0.5) << "noise " << c.noise;
+    EXPECT_LT(median, 0.15) << "noise " << c.noise;
+    EXPECT_NEAR(error_ratio, 1.0, 0.05) << "noise " << c.noise;
   }
 }
 
@@ -593,3 +604,4 @@ TEST(TrackRefinement, ViewsCloserOrFartherAreFittedAtTheReferencesScale) {
 
 }  // namespace
 }  // namespace tagsfm
+
