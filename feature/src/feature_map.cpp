@@ -23,6 +23,9 @@ Status FeatureMapOptions::Check() const {
   if (!(max_view_angle_deg > 0 && max_view_angle_deg <= 180)) return MakeError("feature_map.max_view_angle_deg must be in (0, 180]");
   if (!(rematch_shift_px >= 0)) return MakeError("feature_map.rematch_shift_px must be >= 0");
   if (!(max_fit_sigma_per_epipolar_sigma >= 0)) return MakeError("feature_map.max_fit_sigma_per_epipolar_sigma must be >= 0");
+  if (!(first_pass_max_reprojection_rms_px > 0)) {
+    return MakeError("feature_map.first_pass_max_reprojection_rms_px must be > 0");
+  }
   return Status::Ok();
 }
 
@@ -354,9 +357,11 @@ std::vector<FeaturePoint> FeatureMap::Triangulate(const PoseMap& cam_from_world,
     if (stats != nullptr) *stats = counts;
     return points;
   }
-  // The first points only predict the warps: no sigma filter, SIFT's noise.
+  // The first points only predict the warps: no sigma filter, SIFT's noise,
+  // any track within the fits' reach.
   TrackTriangulationOptions first_pass = options_.triangulation;
   first_pass.max_relative_sigma = 1.0;
+  first_pass.max_reprojection_rms_px = options_.first_pass_max_reprojection_rms_px;
   const std::vector<FeaturePoint> first =
       TriangulateTracks(tracks, cam_from_world, camera, first_pass, threads, &counts.first_pass);
   const std::vector<std::vector<cv::Mat>> pyramids = CoarseLevels(keyframes_, options_.refinement, threads);

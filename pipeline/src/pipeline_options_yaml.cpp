@@ -142,6 +142,7 @@ void ReadFeatureMap(YamlFields f, FeatureMapOptions* o) {
   ReadTriangulation(f.Block("triangulation"), &o->triangulation);
   f.Read("refine", &o->refine);
   ReadRefinement(f.Block("refinement"), &o->refinement);
+  f.Read("first_pass_max_reprojection_rms_px", &o->first_pass_max_reprojection_rms_px);
   f.Read("refined_feature_sigma_px", &o->refined_feature_sigma_px);
   f.Read("keep_unrefined_views", &o->keep_unrefined_views);
   f.Read("epipolar_fallback", &o->epipolar_fallback);

@@ -206,8 +206,10 @@ TEST(ReplayRealDataSlow, SwatboticsFeaturePoints) {
             << epipolar_sigma << " px, " << report["feature_triangulation"]["line_fits"] << " line fits; cameras moved "
             << report["points_shift_px"] << " px at the points\n";
   EXPECT_EQ(report["registered_frames"], 72);
-  // 20 % under the measured 3,676, above the 2,130 of the fixed limit.
-  EXPECT_GE(points, 2940);
+  // 20 % under the measured 4,659 (2,130 with the fits' fixed limit, 3,676
+  // before the fits out of iterations, the second references and the first
+  // pass at the fits' reach; docs/features.md).
+  EXPECT_GE(points, 3727);
   EXPECT_LE(rms, 0.61);  // COLMAP's
   // The targets alone leave the poses ~1 px from the scene's: the points
   // are triangulated again from the adjusted poses.

@@ -123,6 +123,8 @@ TEST_F(PipelineOptionsFile, TheDocumentedBlockReadsAndHoldsTheDefaults) {
   EXPECT_DOUBLE_EQ(options->features.depth_range_factor, defaults.features.depth_range_factor);
   EXPECT_EQ(options->features.finish_threads, defaults.features.finish_threads);
   EXPECT_EQ(options->features.map.refine, defaults.features.map.refine);
+  EXPECT_DOUBLE_EQ(options->features.map.first_pass_max_reprojection_rms_px,
+                   defaults.features.map.first_pass_max_reprojection_rms_px);
   EXPECT_DOUBLE_EQ(options->features.map.refined_feature_sigma_px, defaults.features.map.refined_feature_sigma_px);
   EXPECT_EQ(options->features.map.refinement.half_window, defaults.features.map.refinement.half_window);
   EXPECT_DOUBLE_EQ(options->features.map.refinement.min_correlation, defaults.features.map.refinement.min_correlation);

@@ -31,6 +31,14 @@ struct FeatureMapOptions {
   // triangulation of the SIFT pixels predicts the warps.
   bool refine = true;
   PatchRefinementOptions refinement;
+  // With `refine`, the first pass's limit on a track's RMS reprojection at
+  // its SIFT pixels, px. That pass only predicts the warps; a track whose
+  // views all lie within triangulation.max_view_error_px (2 px, the fits'
+  // reach refinement.max_shift_px) goes to the fits, which, with the final
+  // pass's own limit, judge its point. At the final pass's 1 px it refused
+  // tracks the fits would keep: swatbotics 4,067 -> 4,659 points, the
+  // rendered walks as accurate or more (docs/features.md).
+  double first_pass_max_reprojection_rms_px = 2.0;
   // The refined views' localisation noise, px, for the final pass's
   // predicted-sigma filter and covariance floor (measured in
   // docs/features.md).
