@@ -370,6 +370,21 @@ TrackAndPoint SiftTrack(TrackId id, const Eigen::Vector3d& truth, const PoseMap&
   return out;
 }
 
+// `count` cameras side by side along x, `step` m apart, all looking along z.
+PoseMap CamerasAlongX(int count, double step) {
+  PoseMap poses;
+  for (FrameId k = 0; k < count; ++k) {
+    poses[k] = Rigid3d(Eigen::Quaterniond::Identity(), Eigen::Vector3d(-step * static_cast<double>(k), 0, 0));
+  }
+  return poses;
+}
+
+// The keyframes' images at full size only (no coarser levels); `images`
+// must outlive the lookup.
+KeyframeImageLookup FullSizeOnly(const std::map<FrameId, cv::Mat>& images) {
+  return [&images](FrameId frame, int level) { return level == 0 ? &images.at(frame) : nullptr; };
+}
+
 // Three cameras side by side (1 px apart in the image) over a textured
 // fronto-parallel plane; the middle one is the reference. A view whose
 // image is flat refuses its fit: it stays at its own pixel with the
@@ -381,10 +396,9 @@ TEST(TrackRefinement, ARefusedFitKeepsItsPixelAtTheDetectorsNoise) {
   const double depth = 2.0, step = 0.02;  // f * step / depth = 1 px between cameras
   const std::vector<Blob> texture = Blurred(MakeTexture(3, 11, 40), 0.7);
   std::map<FrameId, cv::Mat> textured, flat;
-  PoseMap poses;
+  const PoseMap poses = CamerasAlongX(3, step);
   for (FrameId k = 0; k < 3; ++k) {
     const double t = step * static_cast<double>(k);
-    poses[k] = Rigid3d(Eigen::Quaterniond::Identity(), Eigen::Vector3d(-t, 0, 0));
     textured[k] = Render(texture, 64, Eigen::Matrix2d::Identity(), {-31.5 + 100 * t / depth, -31.5}, 1, 0, 1, 20 + k);
     flat[k] = Render({}, 64, Eigen::Matrix2d::Identity(), {0, 0}, 1, 0, 1, 30 + k);
   }
@@ -401,7 +415,7 @@ TEST(TrackRefinement, ARefusedFitKeepsItsPixelAtTheDetectorsNoise) {
   // Frame 2 flat: frame 0 is fitted to the truth, frame 2 keeps its pixel.
   const FeatureTrack one_refused = refine({{0, &textured[0]}, {1, &textured[1]}, {2, &flat[2]}}, 0.5, track);
   ASSERT_EQ(one_refused.observations.size(), 3u);
-  EXPECT_LT((one_refused.observations[0].pixel - camera.Project(poses[0] * truth)).norm(), 0.1);
+  EXPECT_LT((one_refused.observations[0].pixel - camera.Project(poses.at(0) * truth)).norm(), 0.1);
   EXPECT_LT(one_refused.observations[0].sigma_px, 0.1);
   EXPECT_EQ(one_refused.observations[2].pixel, track.observations[2].pixel);
   EXPECT_EQ(one_refused.observations[2].sigma_px, 0.5);
@@ -431,17 +445,14 @@ TEST(TrackRefinement, ATrackWhoseReferenceFitsNothingTriesTheNextView) {
   const double depth = 2.0, step = 0.02;
   const std::vector<Blob> texture = Blurred(MakeTexture(3, 12, 40), 0.7);
   const Eigen::Vector3d truth((31.3 - 31.5) * depth / 100 + step, (32.6 - 31.5) * depth / 100, depth);
-  PoseMap poses;
+  const PoseMap poses = CamerasAlongX(4, step);
   Eigen::Vector3d mean_direction = Eigen::Vector3d::Zero();
-  for (FrameId k = 0; k < 4; ++k) {
-    poses[k] = Rigid3d(Eigen::Quaterniond::Identity(), Eigen::Vector3d(-step * static_cast<double>(k), 0, 0));
-    mean_direction += (poses[k].Center() - truth).normalized();
-  }
+  for (const auto& [frame, pose] : poses) mean_direction += (pose.Center() - truth).normalized();
   // The first reference: the view nearest the mean viewing direction.
   FrameId first = 0;
   for (FrameId k = 1; k < 4; ++k) {
-    if ((poses[k].Center() - truth).normalized().dot(mean_direction) >
-        (poses[first].Center() - truth).normalized().dot(mean_direction)) {
+    if ((poses.at(k).Center() - truth).normalized().dot(mean_direction) >
+        (poses.at(first).Center() - truth).normalized().dot(mean_direction)) {
       first = k;
     }
   }
@@ -451,7 +462,7 @@ TEST(TrackRefinement, ATrackWhoseReferenceFitsNothingTriesTheNextView) {
     images[k] = k == first ? Render({}, 64, Eigen::Matrix2d::Identity(), {0, 0}, 1, 0, 1, 41)
                            : Render(texture, 64, Eigen::Matrix2d::Identity(), {-31.5 + 100 * t / depth, -31.5}, 1, 0, 1, 40 + k);
   }
-  const KeyframeImageLookup image_of = [&](FrameId frame, int level) { return level == 0 ? &images.at(frame) : nullptr; };
+  const KeyframeImageLookup image_of = FullSizeOnly(images);
   const TrackAndPoint sift = SiftTrack(8, truth, poses, camera, [](FrameId) { return Eigen::Vector2d(0.3, 0); });
   PatchRefinementOptions one_reference;
   one_reference.reference_attempts = 1;
@@ -462,7 +473,7 @@ TEST(TrackRefinement, ATrackWhoseReferenceFitsNothingTriesTheNextView) {
   ASSERT_EQ(refined.observations.size(), 3u);
   for (const TrackObservation& o : refined.observations) {
     EXPECT_NE(o.frame, first);
-    const Eigen::Vector2d off = o.pixel - camera.Project(poses[o.frame] * truth);
+    const Eigen::Vector2d off = o.pixel - camera.Project(poses.at(o.frame) * truth);
     EXPECT_LT((off - Eigen::Vector2d(0.3, 0)).norm(), 0.1) << "frame " << o.frame;
   }
   // Without the textured view farthest from the flat one (which stays the
@@ -482,15 +493,14 @@ TEST(TrackRefinement, ATrackWhoseReferenceFitsNothingTriesTheNextView) {
 TEST(TrackRefinement, AnEdgeIsFittedAlongTheEpipolarLines) {
   const CameraModel camera = testing::PinholeCamera(64, 64, 100, 31.5, 31.5);
   const double depth = 2.0, step = 0.02;
-  PoseMap poses;
-  for (FrameId k = 0; k < 3; ++k) poses[k] = Rigid3d(Eigen::Quaterniond::Identity(), Eigen::Vector3d(-step * double(k), 0, 0));
+  const PoseMap poses = CamerasAlongX(3, step);
   const Eigen::Vector3d truth(-0.004 + step, 0.022, depth);
   for (const double normal_deg : {20.0, 45.0, 110.0}) {
     std::map<FrameId, cv::Mat> images;
     for (FrameId k = 0; k < 3; ++k) {
-      images[k] = RenderEdge(64, camera.Project(poses[k] * truth), normal_deg, 1.0, 2, 50 + static_cast<unsigned>(k));
+      images[k] = RenderEdge(64, camera.Project(poses.at(k) * truth), normal_deg, 1.0, 2, 50 + static_cast<unsigned>(k));
     }
-    const KeyframeImageLookup image_of = [&](FrameId frame, int level) { return level == 0 ? &images.at(frame) : nullptr; };
+    const KeyframeImageLookup image_of = FullSizeOnly(images);
     const TrackAndPoint sift = SiftTrack(5, truth, poses, camera, [](FrameId k) { return Eigen::Vector2d(k == 1 ? 0 : 0.4, 0); });
     TrackRefinementReport free_only;
     EXPECT_TRUE(RefineTrackViews(sift.track, sift.point, poses, image_of, camera, {}, 0.0, 0.0, &free_only).observations.empty());
@@ -500,7 +510,7 @@ TEST(TrackRefinement, AnEdgeIsFittedAlongTheEpipolarLines) {
     ASSERT_EQ(refined.observations.size(), 3u) << normal_deg;
     EXPECT_EQ(report.line_fits, 2);
     for (const TrackObservation& o : refined.observations) {
-      EXPECT_LT((o.pixel - camera.Project(poses[o.frame] * truth)).norm(), 0.05) << normal_deg << " frame " << o.frame;
+      EXPECT_LT((o.pixel - camera.Project(poses.at(o.frame) * truth)).norm(), 0.05) << normal_deg << " frame " << o.frame;
       if (o.frame != 1) {
         EXPECT_LT(o.sigma_px, 0.1);
       }
@@ -515,21 +525,20 @@ TEST(TrackRefinement, AnEdgeIsFittedAlongTheEpipolarLines) {
 TEST(TrackRefinement, ADiscardedReferenceAttemptsLineFitsAreNotCounted) {
   const CameraModel camera = testing::PinholeCamera(64, 64, 100, 31.5, 31.5);
   const double depth = 2.0, step = 0.02;
-  PoseMap poses;
-  for (FrameId k = 0; k < 3; ++k) poses[k] = Rigid3d(Eigen::Quaterniond::Identity(), Eigen::Vector3d(-step * double(k), 0, 0));
+  const PoseMap poses = CamerasAlongX(3, step);
   const Eigen::Vector3d truth(-0.004 + step, 0.022, depth);
   std::map<FrameId, cv::Mat> images;
   for (FrameId k = 0; k < 3; ++k) {
     images[k] = k == 1 ? Render({}, 64, Eigen::Matrix2d::Identity(), {0, 0}, 1, 0, 1, 61)
-                       : RenderEdge(64, camera.Project(poses[k] * truth), 45.0, 1.0, 2, 60 + static_cast<unsigned>(k));
+                       : RenderEdge(64, camera.Project(poses.at(k) * truth), 45.0, 1.0, 2, 60 + static_cast<unsigned>(k));
   }
-  const KeyframeImageLookup image_of = [&](FrameId frame, int level) { return level == 0 ? &images.at(frame) : nullptr; };
+  const KeyframeImageLookup image_of = FullSizeOnly(images);
   const TrackAndPoint sift = SiftTrack(5, truth, poses, camera, [](FrameId k) { return Eigen::Vector2d(k == 1 ? 0 : 0.4, 0); });
   // With the middle view an edge like the others, the middle reference
   // fits the ends, along the line where the free fit slides, and counts it.
   std::map<FrameId, cv::Mat> textured = images;
-  textured[1] = RenderEdge(64, camera.Project(poses[1] * truth), 45.0, 1.0, 2, 62);
-  const KeyframeImageLookup textured_of = [&](FrameId frame, int level) { return level == 0 ? &textured.at(frame) : nullptr; };
+  textured[1] = RenderEdge(64, camera.Project(poses.at(1) * truth), 45.0, 1.0, 2, 62);
+  const KeyframeImageLookup textured_of = FullSizeOnly(textured);
   TrackRefinementReport kept;
   ASSERT_EQ(RefineTrackViews(sift.track, sift.point, poses, textured_of, camera, {}, 0.0, 0.02, &kept).observations.size(), 3u);
   EXPECT_GE(kept.line_fits, 1);
