@@ -21,6 +21,8 @@ Status PatchRefinementOptions::Check() const {
   if (!(max_sigma_px > 0)) return MakeError("refinement.max_sigma_px must be > 0");
   if (max_level < 0 || max_level > 6) return MakeError("refinement.max_level must be in [0, 6]");
   if (reference_attempts < 1) return MakeError("refinement.reference_attempts must be >= 1");
+  if (tilt_retries < 0) return MakeError("refinement.tilt_retries must be >= 0");
+  if (!(tilt_step_deg > 0 && tilt_step_deg < 90)) return MakeError("refinement.tilt_step_deg must be in (0, 90)");
   return Status::Ok();
 }
 

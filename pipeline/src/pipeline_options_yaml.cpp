@@ -129,6 +129,8 @@ void ReadRefinement(YamlFields f, PatchRefinementOptions* o) {
   f.Read("converged_px", &o->converged_px);
   f.Read("converged_sigma_fraction", &o->converged_sigma_fraction);
   f.Read("reference_attempts", &o->reference_attempts);
+  f.Read("tilt_retries", &o->tilt_retries);
+  f.Read("tilt_step_deg", &o->tilt_step_deg);
   f.Read("max_shift_px", &o->max_shift_px);
   f.Read("min_correlation", &o->min_correlation);
   f.Read("max_sigma_px", &o->max_sigma_px);

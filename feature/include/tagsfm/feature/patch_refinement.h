@@ -53,6 +53,16 @@ struct PatchRefinementOptions {
   // this many references in all; kept that way with three views or more
   // (track_refinement.h).
   int reference_attempts = 2;
+  // A view whose fit is refused from the warp of a plane facing the
+  // cameras is fitted again from planes tilted by 1, 2, ... up to
+  // tilt_retries times tilt_step_deg each way, nearest first, in the plane
+  // of its own and the reference's rays (the tilt that changes the warp
+  // between them); the first fit accepted counts (track_refinement.h). A
+  // wall seen obliquely from two sides is foreshortened differently in the
+  // two views, and from the facing plane's warp the fit runs off. Each
+  // retry is held to every check of the first fit. 0: no retries.
+  int tilt_retries = 2;
+  double tilt_step_deg = 30.0;
 
   Status Check() const;  // names the wrong field
 };
