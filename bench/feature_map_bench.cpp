@@ -192,6 +192,8 @@ bool ParseOptions(int argc, char** argv, int first, BenchOptions& o) {
     else if (name == "--fit-sigma-per-epipolar") o.map.max_fit_sigma_per_epipolar_sigma = v;
     else if (name == "--max-shift") o.map.refinement.max_shift_px = v;
     else if (name == "--reference-attempts") o.map.refinement.reference_attempts = static_cast<int>(v);
+    else if (name == "--tilt-retries") o.map.refinement.tilt_retries = static_cast<int>(v);
+    else if (name == "--tilt-step") o.map.refinement.tilt_step_deg = v;
     else if (name == "--converged-sigma-fraction") o.map.refinement.converged_sigma_fraction = v;
     else if (name == "--max-level") o.map.refinement.max_level = static_cast<int>(v);
     else if (name == "--balance-scale") o.map.refinement.balance_scale = v != 0;
