@@ -21,6 +21,7 @@ nlohmann::json FeatureTriangulationJson(const FeatureTriangulationStats& stats) 
           {"epipolar_sigma_px", stats.epipolar_sigma_px},
           {"max_fit_sigma_px", stats.max_fit_sigma_px},
           {"line_fits", stats.line_fits},
+          {"tilted_fits", stats.tilted_fits},
           {"refinement_dropped", stats.refinement_dropped},
           {"final_pass", PassJson(stats.final_pass)}};
 }

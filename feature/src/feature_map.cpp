@@ -401,7 +401,10 @@ std::vector<FeaturePoint> FeatureMap::Triangulate(const PoseMap& cam_from_world,
   std::vector<FeatureTrack> refined(first.size());
   std::vector<TrackRefinementReport> reports(first.size());
   ParallelFor(first.size(), threads, [&](size_t i) { refined[i] = refine(i, counts.epipolar_sigma_px, &reports[i]); });
-  for (const TrackRefinementReport& report : reports) counts.line_fits += report.line_fits;
+  for (const TrackRefinementReport& report : reports) {
+    counts.line_fits += report.line_fits;
+    counts.tilted_fits += report.tilted_fits;
+  }
   refined.erase(std::remove_if(refined.begin(), refined.end(), [](const FeatureTrack& r) { return r.observations.empty(); }),
                 refined.end());
   counts.refinement_dropped = static_cast<int>(first.size() - refined.size());

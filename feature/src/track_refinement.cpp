@@ -176,7 +176,8 @@ FeatureTrack RefineAgainst(const std::vector<TrackView>& views, size_t reference
       continue;
     }
     std::optional<PatchFit> fit;
-    for (const Eigen::Vector3d& normal : StartNormals(mean_direction, reference.direction, v.direction, options)) {
+    const std::vector<Eigen::Vector3d> normals = StartNormals(mean_direction, reference.direction, v.direction, options);
+    for (const Eigen::Vector3d& normal : normals) {
       PatchWarp start;
       start.affine = PredictPatchAffine(point.position, normal, reference.pose, v.pose, camera);
       start.centre = camera.Project(v.pose * point.position) + start.affine * reference_offset;
@@ -186,7 +187,10 @@ FeatureTrack RefineAgainst(const std::vector<TrackView>& views, size_t reference
       if (reference_image == nullptr || target == nullptr) continue;
       fit = FitView(*reference_image, reference_pixel, *target, start, levels, ray, v.pose, camera, options,
                     epipolar_sigma_px, report);
-      if (fit) break;
+      if (fit) {
+        if (report != nullptr && &normal != &normals.front()) ++report->tilted_fits;
+        break;
+      }
     }
     if (!fit) {
       if (unrefined_sigma_px <= 0) continue;
@@ -254,7 +258,10 @@ FeatureTrack RefineTrackViews(const FeatureTrack& track, const FeaturePoint& poi
     if (report != nullptr) {
       report->across_epipolar_px.insert(report->across_epipolar_px.end(), attempt.across_epipolar_px.begin(),
                                         attempt.across_epipolar_px.end());
-      if (kept) report->line_fits += attempt.line_fits;
+      if (kept) {
+        report->line_fits += attempt.line_fits;
+        report->tilted_fits += attempt.tilted_fits;
+      }
     }
     if (kept) break;
     out.observations.clear();

@@ -681,7 +681,7 @@ TEST(TrackRefinement, AnObliqueSurfaceIsFittedFromATiltedPlane) {
   no_retries.tilt_retries = 0;
   const PatchRefinementOptions retries;  // the default
   ASSERT_EQ(retries.tilt_retries, 2);
-  int accepted_without = 0, accepted_with = 0, cases = 0;
+  int accepted_without = 0, accepted_with = 0, cases = 0, tilted_fits = 0;
   double worst_error = 0;
   for (const double tilt_deg : {25.0, 35.0, 45.0, 50.0, 55.0, 60.0}) {
     for (unsigned seed = 1; seed <= 4; ++seed) {
@@ -700,7 +700,10 @@ TEST(TrackRefinement, AnObliqueSurfaceIsFittedFromATiltedPlane) {
       const KeyframeImageLookup image_of = FullSizeOnly(images);
       ++cases;
       for (const bool with : {false, true}) {
-        const FeatureTrack refined = RefineTrackViews(sift.track, sift.point, poses, image_of, camera, with ? retries : no_retries);
+        TrackRefinementReport report;
+        const FeatureTrack refined =
+            RefineTrackViews(sift.track, sift.point, poses, image_of, camera, with ? retries : no_retries, 0.0, 0.0, &report);
+        tilted_fits += report.tilted_fits;
         if (refined.observations.size() != 2) continue;
         (with ? accepted_with : accepted_without)++;
         const TrackObservation& reference = refined.observations[0].sigma_px == 0 ? refined.observations[0] : refined.observations[1];
@@ -717,6 +720,7 @@ TEST(TrackRefinement, AnObliqueSurfaceIsFittedFromATiltedPlane) {
   std::cout << "accepted from the facing plane " << accepted_without << ", with retries " << accepted_with << " of " << cases
             << "; worst error " << worst_error << " px\n";
   EXPECT_GE(accepted_with, accepted_without + 3);
+  EXPECT_EQ(tilted_fits, accepted_with - accepted_without);  // counted in report.json's feature_triangulation
   EXPECT_LT(worst_error, 0.1);
 }
 

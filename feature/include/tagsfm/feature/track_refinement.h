@@ -35,6 +35,7 @@ struct TrackRefinementReport {
   // line, px: the poses' and the lens' error there, and the fit's noise.
   std::vector<double> across_epipolar_px;
   int line_fits = 0;  // views of the kept track fitted along the line after their free fit was refused
+  int tilted_fits = 0;  // views of the kept track accepted from a tilted plane's start (tilt_retries)
 };
 
 // `track`'s views that are in `point` (a first triangulation of it), each

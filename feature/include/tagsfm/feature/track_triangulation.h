@@ -84,6 +84,7 @@ struct FeatureTriangulationStats {
   double epipolar_sigma_px = 0;
   double max_fit_sigma_px = 0;  // the fits' limit that follows from it (FeatureMapOptions), 0: not measured
   int line_fits = 0;
+  int tilted_fits = 0;  // views accepted from a tilted plane's start (PatchRefinementOptions::tilt_retries)
   int refinement_dropped = 0;
   TrackTriangulationStats final_pass;
 };
