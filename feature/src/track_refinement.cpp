@@ -254,7 +254,7 @@ FeatureTrack RefineTrackViews(const FeatureTrack& track, const FeaturePoint& poi
                         epipolar_sigma_px, report != nullptr ? &attempt : nullptr);
     const bool kept = out.observations.size() >= (k == 0 ? 2u : 3u);
     // A discarded attempt's free fits still measure the lines' error; its
-    // line fits are not in the track, so they are not counted.
+    // line and tilted fits are not in the track, so they are not counted.
     if (report != nullptr) {
       report->across_epipolar_px.insert(report->across_epipolar_px.end(), attempt.across_epipolar_px.begin(),
                                         attempt.across_epipolar_px.end());

@@ -3,10 +3,11 @@
 // triangulated point is fitted (patch_refinement.h) to one reference view,
 // the warp predicted from the known poses and a plane through the point
 // facing the cameras (or, when that fit is refused, tilted from it:
-// PatchRefinementOptions::tilt_retries). The reference keeps its SIFT pixel; its own error
-// only slides the point along the surface, while the other views now see
-// the same surface point to a few hundredths of a pixel, so the depth along
-// narrow rays is no longer set by SIFT's localisation.
+// PatchRefinementOptions::tilt_retries). The reference keeps its SIFT
+// pixel; its own error only slides the point along the surface, while the
+// other views now see the same surface point to a few hundredths of a
+// pixel, so the depth along narrow rays is no longer set by SIFT's
+// localisation.
 #include <functional>
 #include <vector>
 
