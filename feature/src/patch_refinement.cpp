@@ -29,9 +29,11 @@ Status PatchRefinementOptions::Check() const {
 namespace {
 
 // Bilinear grey value at (x, y); the caller keeps (x, y) at least one pixel
-// inside the image.
+// inside the image. Coordinates are then positive, so truncation is their
+// floor: std::floor is a library call on baseline x86-64 (no SSE4.1), and
+// the fits spent 9 % of their time in it (docs/features.md).
 inline double Sample(const cv::Mat& image, double x, double y) {
-  const int x0 = static_cast<int>(std::floor(x)), y0 = static_cast<int>(std::floor(y));
+  const int x0 = static_cast<int>(x), y0 = static_cast<int>(y);
   const double fx = x - x0, fy = y - y0;
   const std::uint8_t* r0 = image.ptr<std::uint8_t>(y0) + x0;
   const std::uint8_t* r1 = image.ptr<std::uint8_t>(y0 + 1) + x0;
@@ -46,7 +48,7 @@ struct SampleWithSlope {
 };
 
 inline SampleWithSlope SampleAndSlope(const cv::Mat& image, double x, double y) {
-  const int x0 = static_cast<int>(std::floor(x)), y0 = static_cast<int>(std::floor(y));
+  const int x0 = static_cast<int>(x), y0 = static_cast<int>(y);  // positive: truncation is the floor
   const double fx = x - x0, fy = y - y0;
   // rows[r][c]: pixel (x0 + c - 1, y0 + r - 1), each row interpolated in x
   // at the sample's column and one column left and right.
