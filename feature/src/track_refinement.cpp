@@ -123,15 +123,15 @@ Eigen::Matrix2d PredictPatchAffine(const Eigen::Vector3d& point, const Eigen::Ve
 
 namespace {
 
-// The surface normals a view's fit starts from, in order: the plane facing
-// the cameras (`mean_direction`), then planes tilted from it by k *
-// options.tilt_step_deg, k = 1 .. tilt_retries, each way, about the normal
-// of the plane of the reference's and the view's rays (unit, point to
-// camera). A tilted plane that either camera would see at more than 85
-// degrees is left out: its warp squeezes the patch to a line.
-std::vector<Eigen::Vector3d> StartNormals(const Eigen::Vector3d& mean_direction, const Eigen::Vector3d& reference_direction,
-                                          const Eigen::Vector3d& view_direction, const PatchRefinementOptions& options) {
-  std::vector<Eigen::Vector3d> normals{mean_direction};
+// The surface normals a refused fit starts from again, in order: the plane
+// facing the cameras (`mean_direction`) tilted by k * options.tilt_step_deg,
+// k = 1 .. tilt_retries, each way, about the normal of the plane of the
+// reference's and the view's rays (unit, point to camera). A tilted plane
+// that either camera would see at more than 85 degrees is left out: its
+// warp squeezes the patch to a line.
+std::vector<Eigen::Vector3d> TiltedNormals(const Eigen::Vector3d& mean_direction, const Eigen::Vector3d& reference_direction,
+                                           const Eigen::Vector3d& view_direction, const PatchRefinementOptions& options) {
+  std::vector<Eigen::Vector3d> normals;
   const Eigen::Vector3d axis = reference_direction.cross(view_direction);
   if (!(axis.norm() > 1e-9)) return normals;  // the same ray: no plane to tilt in
   const double min_cos = std::cos(85.0 * M_PI / 180.0);
@@ -175,20 +175,24 @@ FeatureTrack RefineAgainst(const std::vector<TrackView>& views, size_t reference
       out.observations.push_back(v.observation);
       continue;
     }
-    std::optional<PatchFit> fit;
-    const std::vector<Eigen::Vector3d> normals = StartNormals(mean_direction, reference.direction, v.direction, options);
-    for (const Eigen::Vector3d& normal : normals) {
+    // The fit from the warp of a plane with this normal through the point.
+    const auto fit_from = [&](const Eigen::Vector3d& normal) -> std::optional<PatchFit> {
       PatchWarp start;
       start.affine = PredictPatchAffine(point.position, normal, reference.pose, v.pose, camera);
       start.centre = camera.Project(v.pose * point.position) + start.affine * reference_offset;
       const FitLevels levels = BalancedLevels(start.affine, options);
       const cv::Mat* reference_image = image_of(reference.observation.frame, levels.reference);
       const cv::Mat* target = image_of(v.observation.frame, levels.target);
-      if (reference_image == nullptr || target == nullptr) continue;
-      fit = FitView(*reference_image, reference_pixel, *target, start, levels, ray, v.pose, camera, options,
-                    epipolar_sigma_px, report);
-      if (fit) {
-        if (report != nullptr && &normal != &normals.front()) ++report->tilted_fits;
+      if (reference_image == nullptr || target == nullptr) return std::nullopt;
+      return FitView(*reference_image, reference_pixel, *target, start, levels, ray, v.pose, camera, options,
+                     epipolar_sigma_px, report);
+    };
+    std::optional<PatchFit> fit = fit_from(mean_direction);
+    if (!fit) {
+      for (const Eigen::Vector3d& normal : TiltedNormals(mean_direction, reference.direction, v.direction, options)) {
+        fit = fit_from(normal);
+        if (!fit) continue;
+        if (report != nullptr) ++report->tilted_fits;
         break;
       }
     }
