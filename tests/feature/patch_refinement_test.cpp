@@ -59,6 +59,18 @@ std::vector<Blob> Blurred(std::vector<Blob> blobs, double blur) {
   return blobs;
 }
 
+// `image` (CV_64F grey values) plus Gaussian noise from `seed`, rounded to
+// 8 bits.
+cv::Mat WithNoise(const cv::Mat& image, double noise, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> n(0, noise);
+  cv::Mat out(image.rows, image.cols, CV_8U);
+  for (int y = 0; y < image.rows; ++y) {
+    for (int x = 0; x < image.cols; ++x) out.at<std::uint8_t>(y, x) = cv::saturate_cast<std::uint8_t>(image.at<double>(y, x) + n(rng));
+  }
+  return out;
+}
+
 // An image of `size` pixels whose pixel x sees texture point linear * x +
 // shift, averaged over 2 x 2 samples per pixel, times `gain` plus `offset`,
 // with Gaussian noise.
@@ -74,13 +86,7 @@ cv::Mat Render(const std::vector<Blob>& blobs, int size, const Eigen::Matrix2d& 
       image.at<double>(y, x) = gain * sum / 4 + offset;
     }
   }
-  std::mt19937 rng(seed);
-  std::normal_distribution<double> n(0, noise);
-  cv::Mat out(size, size, CV_8U);
-  for (int y = 0; y < size; ++y) {
-    for (int x = 0; x < size; ++x) out.at<std::uint8_t>(y, x) = cv::saturate_cast<std::uint8_t>(image.at<double>(y, x) + n(rng));
-  }
-  return out;
+  return WithNoise(image, noise, seed);
 }
 
 struct Case {
@@ -617,7 +623,6 @@ TEST(TrackRefinement, ViewsCloserOrFartherAreFittedAtTheReferencesScale) {
   EXPECT_EQ(fitted, 3);
 }
 
-
 // A textured plane (a smoothed noise image, `texture_mm` per texel) seen by
 // a pinhole camera: each pixel averages 4 x 4 rays intersected with the
 // plane (through `origin`, in-plane unit axes u and w), with Gaussian noise.
@@ -645,13 +650,7 @@ cv::Mat RenderPlane(const cv::Mat& texture, double texture_mm, const Eigen::Vect
       image.at<double>(y, x) = sum / 16;
     }
   }
-  std::mt19937 rng(seed);
-  std::normal_distribution<double> n(0, noise);
-  cv::Mat out(camera.height, camera.width, CV_8U);
-  for (int y = 0; y < camera.height; ++y) {
-    for (int x = 0; x < camera.width; ++x) out.at<std::uint8_t>(y, x) = cv::saturate_cast<std::uint8_t>(image.at<double>(y, x) + n(rng));
-  }
-  return out;
+  return WithNoise(image, noise, seed);
 }
 
 // Two cameras 2 m from a point, their rays 30 degrees apart, over a plane
