@@ -1,12 +1,12 @@
 #include "tagsfm/core/csv_formats.h"
 
-#include <cstdio>
 #include <fstream>
 #include <set>
 #include <sstream>
 #include <string>
 
 #include "tagsfm/core/file_util.h"
+#include "tagsfm/core/number_text.h"
 
 namespace tagsfm {
 namespace {
@@ -46,12 +46,6 @@ Status ParseDoubles(const std::vector<std::string>& fields, const std::vector<st
     if (!ParseDouble(fields[i], &out[i - first])) return MakeError("field '" + names[i] + "' is not a number: '" + fields[i] + "'");
   }
   return Status::Ok();
-}
-
-std::string FormatDouble(double v) {
-  char buffer[40];
-  std::snprintf(buffer, sizeof buffer, "%.17g", v);
-  return buffer;
 }
 
 }  // namespace

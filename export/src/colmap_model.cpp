@@ -9,6 +9,7 @@
 
 #include "corner_stats.h"
 #include "tagsfm/core/file_util.h"
+#include "tagsfm/core/number_text.h"
 #include "tagsfm/export/result_writer.h"
 
 namespace tagsfm {
@@ -58,7 +59,7 @@ std::string CamerasText(const CameraModel& c) {
 // `tracks` gets every 3D point's views.
 std::string ImagesText(const ReconstructionResult& result, const RunStats& stats, ColmapTracks* tracks) {
   std::ostringstream images;
-  images << std::setprecision(17) << "# Image list with two lines of data per image:\n"
+  images << "# Image list with two lines of data per image:\n"
          << "#   IMAGE_ID, QW, QX, QY, QZ, TX, TY, TZ, CAMERA_ID, NAME\n#   POINTS2D[] as (X, Y, POINT3D_ID)\n";
   // Feature observations by frame: (pixel, point id).
   std::map<FrameId, std::vector<std::pair<Eigen::Vector2d, long long>>> feature_views;
@@ -72,16 +73,18 @@ std::string ImagesText(const ReconstructionResult& result, const RunStats& stats
     if (!f.registered) continue;
     ++image_id;
     const Rigid3d pose = f.cam_from_world.ToRigid();
-    images << image_id << " " << pose.rotation.w() << " " << pose.rotation.x() << " " << pose.rotation.y() << " "
-           << pose.rotation.z() << " " << pose.translation.x() << " " << pose.translation.y() << " "
-           << pose.translation.z() << " 1 " << FrameName(stats, f.frame) << "\n";
+    images << image_id << " " << ExactText(pose.rotation.w()) << " " << ExactText(pose.rotation.x()) << " "
+           << ExactText(pose.rotation.y()) << " " << ExactText(pose.rotation.z()) << " " << ExactText(pose.translation.x())
+           << " " << ExactText(pose.translation.y()) << " " << ExactText(pose.translation.z()) << " 1 "
+           << FrameName(stats, f.frame) << "\n";
     int index = 0;
     bool first = true;
     for (const auto& obs : f.tags) {
       const bool mapped = result.tags.count(obs.id) > 0;
       for (int k = 0; k < 4; ++k) {
         const long long point_id = mapped ? CornerPointId(obs.id, k) : -1;
-        images << (first ? "" : " ") << obs.pixels[k].x() + 0.5 << " " << obs.pixels[k].y() + 0.5 << " " << point_id;
+        images << (first ? "" : " ") << ExactText(obs.pixels[k].x() + 0.5) << " " << ExactText(obs.pixels[k].y() + 0.5)
+               << " " << point_id;
         first = false;
         if (mapped) (*tracks)[point_id].emplace_back(image_id, index);
         ++index;
@@ -89,7 +92,7 @@ std::string ImagesText(const ReconstructionResult& result, const RunStats& stats
     }
     if (auto it = feature_views.find(f.frame); it != feature_views.end()) {
       for (const auto& [pixel, point_id] : it->second) {
-        images << (first ? "" : " ") << pixel.x() + 0.5 << " " << pixel.y() + 0.5 << " " << point_id;
+        images << (first ? "" : " ") << ExactText(pixel.x() + 0.5) << " " << ExactText(pixel.y() + 0.5) << " " << point_id;
         first = false;
         (*tracks)[point_id].emplace_back(image_id, index++);
       }
@@ -104,15 +107,16 @@ std::string ImagesText(const ReconstructionResult& result, const RunStats& stats
 std::string PointsText(const ReconstructionResult& result, ColmapTracks& tracks) {
   const auto corner_stats = ComputeCornerStats(result);
   std::ostringstream points;
-  points << std::setprecision(17) << "# 3D point list with one line of data per point:\n"
+  points << "# 3D point list with one line of data per point:\n"
          << "#   POINT3D_ID, X, Y, Z, R, G, B, ERROR, TRACK[] as (IMAGE_ID, POINT2D_IDX)\n";
   for (const auto& [id, tag] : result.tags) {
     const TagCorners corners = tag.CornersInWorld();
     for (int k = 0; k < 4; ++k) {
       const long long point_id = CornerPointId(id, k);
       auto it = corner_stats.find({id, k});
-      points << point_id << " " << corners[k].x() << " " << corners[k].y() << " " << corners[k].z() << " "
-             << (tag.known ? "40 90 255 " : "255 140 0 ") << (it == corner_stats.end() ? 0.0 : it->second.rms_px);
+      points << point_id << " " << ExactText(corners[k].x()) << " " << ExactText(corners[k].y()) << " "
+             << ExactText(corners[k].z()) << " " << (tag.known ? "40 90 255 " : "255 140 0 ")
+             << ExactText(it == corner_stats.end() ? 0.0 : it->second.rms_px);
       for (const auto& [img, idx] : tracks[point_id]) points << " " << img << " " << idx;
       points << "\n";
     }
@@ -120,8 +124,9 @@ std::string PointsText(const ReconstructionResult& result, ColmapTracks& tracks)
   for (size_t i = 0; i < result.feature_points.size(); ++i) {
     const FeaturePoint& p = result.feature_points[i];
     const long long point_id = kFirstFeaturePointId + static_cast<long long>(i);
-    points << point_id << " " << p.position.x() << " " << p.position.y() << " " << p.position.z() << " "
-           << int{p.rgb[0]} << " " << int{p.rgb[1]} << " " << int{p.rgb[2]} << " " << p.reprojection_rms_px;
+    points << point_id << " " << ExactText(p.position.x()) << " " << ExactText(p.position.y()) << " "
+           << ExactText(p.position.z()) << " " << int{p.rgb[0]} << " " << int{p.rgb[1]} << " " << int{p.rgb[2]} << " "
+           << ExactText(p.reprojection_rms_px);
     for (const auto& [img, idx] : tracks[point_id]) points << " " << img << " " << idx;
     points << "\n";
   }

@@ -4,6 +4,7 @@
 #include <sstream>
 
 #include "tagsfm/core/file_util.h"
+#include "tagsfm/core/number_text.h"
 
 namespace tagsfm {
 namespace {
@@ -16,15 +17,15 @@ constexpr const char* kHeader =
 Status WriteFeaturePointsCsv(const std::filesystem::path& path, const std::vector<FeaturePoint>& points,
                              long long first_id) {
   std::ostringstream out;
-  out.precision(17);
   out << kHeader << "\n";
   for (size_t i = 0; i < points.size(); ++i) {
     const FeaturePoint& p = points[i];
     const Eigen::Matrix3d& c = p.covariance;
-    out << first_id + static_cast<long long>(i) << ',' << p.position.x() << ',' << p.position.y() << ','
-        << p.position.z() << ',' << int{p.rgb[0]} << ',' << int{p.rgb[1]} << ',' << int{p.rgb[2]} << ','
-        << p.observations.size() << ',' << p.reprojection_rms_px << ',' << c(0, 0) << ',' << c(0, 1) << ',' << c(0, 2)
-        << ',' << c(1, 1) << ',' << c(1, 2) << ',' << c(2, 2) << '\n';
+    out << first_id + static_cast<long long>(i) << ',' << ExactText(p.position.x()) << ',' << ExactText(p.position.y())
+        << ',' << ExactText(p.position.z()) << ',' << int{p.rgb[0]} << ',' << int{p.rgb[1]} << ',' << int{p.rgb[2]}
+        << ',' << p.observations.size() << ',' << ExactText(p.reprojection_rms_px) << ',' << ExactText(c(0, 0)) << ','
+        << ExactText(c(0, 1)) << ',' << ExactText(c(0, 2)) << ',' << ExactText(c(1, 1)) << ',' << ExactText(c(1, 2))
+        << ',' << ExactText(c(2, 2)) << '\n';
   }
   return WriteFileAtomically(path, out.str());
 }

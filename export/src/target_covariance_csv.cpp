@@ -1,17 +1,17 @@
 #include "tagsfm/export/target_covariance_csv.h"
 
-#include <iomanip>
 #include <map>
 #include <sstream>
 #include <vector>
 
 #include "tagsfm/core/file_util.h"
+#include "tagsfm/core/number_text.h"
 
 namespace tagsfm {
 
 Status WriteTargetCovariance(const std::filesystem::path& path, const TagCovariance& cov) {
   std::ostringstream out;
-  out << std::setprecision(17) << "tag_a,tag_b";
+  out << "tag_a,tag_b";
   for (int r = 0; r < 6; ++r) {
     for (int c = 0; c < 6; ++c) out << ",c" << r << c;
   }
@@ -20,7 +20,9 @@ Status WriteTargetCovariance(const std::filesystem::path& path, const TagCovaria
     for (size_t b = a; b < cov.ids.size(); ++b) {
       out << cov.ids[a] << "," << cov.ids[b];
       for (int r = 0; r < 6; ++r) {
-        for (int c = 0; c < 6; ++c) out << "," << cov.covariance(static_cast<Eigen::Index>(6 * a + r), static_cast<Eigen::Index>(6 * b + c));
+        for (int c = 0; c < 6; ++c) {
+          out << "," << ExactText(cov.covariance(static_cast<Eigen::Index>(6 * a + r), static_cast<Eigen::Index>(6 * b + c)));
+        }
       }
       out << "\n";
     }
