@@ -5,7 +5,8 @@
 # (issue 13): COLMAP (Debian's colmap, CPU only, the intrinsics of
 # recording.yaml held fixed), `tagsfm replay REC` (targets + features) and
 # `tagsfm replay REC --no-targets` (feature SfM alone), each timed and scored
-# by `tagsfm evaluate`, in one table. tagsfm with targets is scored in its
+# by `tagsfm evaluate`, in one table, and the ratios of tagsfm's points and
+# wall time to COLMAP's under it. tagsfm with targets is scored in its
 # own metric frame: as it is when REC names a target map, else after a rigid
 # fit (no scale) of its target corners; COLMAP and --no-targets after a
 # similarity alignment of their camera centres to the true ones.
@@ -153,6 +154,7 @@ row() {  # label, result dir, variant, scale column text ("" = the fit's)
     return
   fi
   IFS=$'\t' read -r registered truth points reprojection w1 w2 w5 scale_ppm <<< "$summary"
+  row_points="$points"
   [ -n "$scale_text" ] || scale_text="$scale_ppm ppm"
   printf '| %-22s | %-10s | %9s | %8s px | %5s %% | %5s %% | %5s %% | %-22s | %7s s |\n' "$label" "$registered/$truth" \
     "$points" "$reprojection" "$w1" "$w2" "$w5" "$scale_text" "$wall"
@@ -167,19 +169,30 @@ printf '|%s|%s|%s|%s|%s|%s|%s|%s|%s|\n' "------------------------" "------------
 # tagsfm's frame is the truth's when REC names a target map; without one it
 # is its own (the first tag's), and a rigid fit, which keeps its metric
 # scale, puts it into the true frame.
+row_points=""
 if [ -n "$(yaml_value targets map)" ]; then
   row "tagsfm (targets)" "$out/hybrid/result" as_is "" "$(cat "$out/hybrid/wall_s")"
 else
   row "tagsfm (targets) +" "$out/hybrid/result" rigid "" "$(cat "$out/hybrid/wall_s")"
 fi
+hybrid_points="$row_points"
 if [ -f "$out/no_targets/unavailable" ]; then
   printf '| %-22s | n/a: %s |\n' "tagsfm --no-targets" "$(cat "$out/no_targets/unavailable")"
 else
   row "tagsfm --no-targets *" "$out/no_targets/result" similarity "scaled by the fit" "$(cat "$out/no_targets/wall_s")"
 fi
+row_points=""
 row "COLMAP 3.8 *" "$colmap_dir/model" similarity "scaled by the fit" "$(cat "$colmap_dir/wall_s")"
+colmap_points="$row_points"
 [ -n "$(yaml_value targets map)" ] || echo "+ after a rigid alignment (no target map: tagsfm's world is its first tag's; the fit keeps its scale)."
 echo "* after a similarity alignment of the camera centres to the true ones (no metric scale of its own)."
 echo "Points: tagsfm's feature points (features.csv; target corners apart), COLMAP's points3D.txt."
 echo "Reprojection: mean over points of each point's stored error: tagsfm's per-point RMS, COLMAP's per-point mean (RMS >= mean)."
 echo "Scale error of tagsfm (targets): scale - 1 of the similarity fit of its target corners to the true ones."
+# The issue's targets are ratios against COLMAP from one run: say them.
+hybrid_wall="$(cat "$out/hybrid/wall_s")" colmap_wall="$(cat "$colmap_dir/wall_s")"
+if [[ "$hybrid_points" =~ ^[0-9]+$ && "$colmap_points" =~ ^[0-9]+$ && "$colmap_points" -gt 0 &&
+      "$hybrid_wall" =~ ^[0-9.]+$ && "$colmap_wall" =~ ^[0-9.]+$ ]]; then
+  awk -v p="$hybrid_points" -v cp="$colmap_points" -v w="$hybrid_wall" -v cw="$colmap_wall" \
+    'BEGIN { if (w > 0) printf "tagsfm (targets) against COLMAP 3.8, this run: %.2fx the points, %.1fx less wall time.\n", p / cp, cw / w }'
+fi
