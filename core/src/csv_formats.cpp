@@ -80,8 +80,8 @@ Status WriteTargetsCsv(const std::filesystem::path& path, const TargetCornerMap&
   out << "tag_id,corner,x,y,z\n";
   for (const auto& [tag, corners] : targets) {
     for (int c = 0; c < 4; ++c) {
-      out << tag << ',' << c << ',' << FormatDouble(corners[c].x()) << ',' << FormatDouble(corners[c].y()) << ','
-          << FormatDouble(corners[c].z()) << '\n';
+      out << tag << ',' << c << ',' << ExactText(corners[c].x()) << ',' << ExactText(corners[c].y()) << ','
+          << ExactText(corners[c].z()) << '\n';
     }
   }
   return WriteFileAtomically(path, out.str());
@@ -110,9 +110,9 @@ Status WritePosesCsv(const std::filesystem::path& path, const PoseMap& cam_from_
   out << "frame,qw,qx,qy,qz,tx,ty,tz\n";
   for (const auto& [frame, pose] : cam_from_world) {
     const Eigen::Quaterniond& q = pose.rotation;
-    out << frame << ',' << FormatDouble(q.w()) << ',' << FormatDouble(q.x()) << ',' << FormatDouble(q.y()) << ','
-        << FormatDouble(q.z()) << ',' << FormatDouble(pose.translation.x()) << ',' << FormatDouble(pose.translation.y())
-        << ',' << FormatDouble(pose.translation.z()) << '\n';
+    out << frame << ',' << ExactText(q.w()) << ',' << ExactText(q.x()) << ',' << ExactText(q.y()) << ','
+        << ExactText(q.z()) << ',' << ExactText(pose.translation.x()) << ',' << ExactText(pose.translation.y())
+        << ',' << ExactText(pose.translation.z()) << '\n';
   }
   return WriteFileAtomically(path, out.str());
 }

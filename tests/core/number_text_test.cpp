@@ -6,6 +6,7 @@
 #include <limits>
 #include <random>
 #include <sstream>
+#include <string>
 
 #include <gtest/gtest.h>
 
@@ -13,6 +14,12 @@ namespace tagsfm {
 namespace {
 
 bool SameBits(double a, double b) { return std::memcmp(&a, &b, sizeof a) == 0; }
+
+std::string FormatDouble(double x) {
+  std::ostringstream out;
+  out << ExactText(x);
+  return out.str();
+}
 
 // Every double a result file holds must read back to itself, bit for bit:
 // values over the whole range (coordinates, covariances of 1e-12 m^2,

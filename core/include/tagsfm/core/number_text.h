@@ -4,7 +4,6 @@
 // several times faster (glibc formats "%.17g" with multi-precision
 // arithmetic), and a result holds millions of them (docs/features.md).
 #include <ostream>
-#include <string>
 
 namespace tagsfm {
 
@@ -15,8 +14,5 @@ struct ExactDouble {
 // `out << ExactText(x)` writes x in its shortest exact form.
 inline ExactDouble ExactText(double value) { return {value}; }
 std::ostream& operator<<(std::ostream& out, ExactDouble number);
-
-// The same as a string.
-std::string FormatDouble(double value);
 
 }  // namespace tagsfm
