@@ -195,6 +195,7 @@ bool ParseOptions(int argc, char** argv, int first, BenchOptions& o) {
     else if (name == "--tilt-retries") o.map.refinement.tilt_retries = static_cast<int>(v);
     else if (name == "--tilt-step") o.map.refinement.tilt_step_deg = v;
     else if (name == "--converged-sigma-fraction") o.map.refinement.converged_sigma_fraction = v;
+    else if (name == "--sparse-until") o.map.refinement.sparse_until_px = v;
     else if (name == "--max-level") o.map.refinement.max_level = static_cast<int>(v);
     else if (name == "--balance-scale") o.map.refinement.balance_scale = v != 0;
     else if (name == "--depth-factor") o.depth_factor = v;

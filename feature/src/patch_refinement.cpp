@@ -16,6 +16,7 @@ Status PatchRefinementOptions::Check() const {
   if (!(converged_sigma_fraction >= 0 && converged_sigma_fraction <= 1)) {
     return MakeError("refinement.converged_sigma_fraction must be in [0, 1]");
   }
+  if (!(sparse_until_px >= 0)) return MakeError("refinement.sparse_until_px must be >= 0 (0: every pixel throughout)");
   if (!(max_shift_px > 0)) return MakeError("refinement.max_shift_px must be > 0");
   if (!(min_correlation >= -1 && min_correlation <= 1)) return MakeError("refinement.min_correlation must be in [-1, 1]");
   if (!(max_sigma_px > 0)) return MakeError("refinement.max_sigma_px must be > 0");
@@ -95,16 +96,18 @@ struct PatchBuffers {
   Eigen::Matrix<double, Eigen::Dynamic, 8> jacobian;
   Eigen::VectorXd residual;
 
-  // The reference patch, (2 h + 1)^2 pixels round `centre`.
-  void SampleTemplate(const cv::Mat& reference, const Eigen::Vector2d& centre, int h) {
-    const size_t n = static_cast<size_t>((2 * h + 1) * (2 * h + 1));
+  // The reference patch round `centre`: the (2 h + 1)^2 pixels, or with
+  // `step` 2 every other pixel of every other row over the same extent.
+  void SampleTemplate(const cv::Mat& reference, const Eigen::Vector2d& centre, int h, int step = 1) {
+    const int side = 2 * h / step + 1;
+    const size_t n = static_cast<size_t>(side * side);
     offsets.resize(n);
     templ.resize(n);
     warped.resize(n);
     jacobian.resize(static_cast<Eigen::Index>(n), 8);
     residual.resize(static_cast<Eigen::Index>(n));
-    for (int dy = -h, i = 0; dy <= h; ++dy) {
-      for (int dx = -h; dx <= h; ++dx, ++i) {
+    for (int dy = -h, i = 0; dy <= h; dy += step) {
+      for (int dx = -h; dx <= h; dx += step, ++i) {
         offsets[static_cast<size_t>(i)] = Eigen::Vector2d(dx, dy);
         templ[static_cast<size_t>(i)] = Sample(reference, centre.x() + dx, centre.y() + dy);
       }
@@ -191,18 +194,26 @@ std::optional<PatchFit> RefinePatch(const cv::Mat& reference, const Eigen::Vecto
       !Inside(reference, reference_pixel.x() + h, reference_pixel.y() + h, 1)) {
     return std::nullopt;
   }
-  thread_local PatchBuffers patch;
+  thread_local PatchBuffers patch, sparse;
   patch.SampleTemplate(reference, reference_pixel, h);
+  // The first steps, far from the minimum, on every other pixel (a quarter
+  // of the work, the same extent and so the same reach); the last ones,
+  // which locate the patch and give its sigma, on every pixel. Below a half
+  // window of 4 the sparse samples would barely outnumber the 8 parameters.
+  bool sparse_phase = options.sparse_until_px > 0 && h >= 4;
+  if (sparse_phase) sparse.SampleTemplate(reference, reference_pixel, h, 2);
   PatchFit fit;
   fit.warp = start;
   double gain = 1, offset = 0;
   Matrix8d normal;
   bool converged = false;
   double last_step_px = 0;
-  for (fit.iterations = 1; fit.iterations <= options.max_iterations; ++fit.iterations) {
-    if (!patch.Linearise(target, fit.warp, gain, offset)) return std::nullopt;
-    normal = patch.NormalMatrix();
-    const Vector8d gradient = patch.jacobian.transpose() * patch.residual;
+  int sparse_left = sparse_phase ? options.max_iterations : 0;
+  for (fit.iterations = 1; fit.iterations <= options.max_iterations; fit.iterations += sparse_phase ? 0 : 1) {
+    PatchBuffers& used = sparse_phase ? sparse : patch;
+    if (!used.Linearise(target, fit.warp, gain, offset)) return std::nullopt;
+    normal = used.NormalMatrix();
+    const Vector8d gradient = used.jacobian.transpose() * used.residual;
     Vector8d delta;
     if (line) {
       // The centre moves along the line only: the step in (t, the other 6)
@@ -220,8 +231,17 @@ std::optional<PatchFit> RefinePatch(const cv::Mat& reference, const Eigen::Vecto
     }
     if (!delta.allFinite()) return std::nullopt;
     ApplyStep(delta, &fit.warp, &gain, &offset);
-    if ((fit.warp.centre - start.centre).norm() > options.max_shift_px || !(gain > 0.2 && gain < 5)) return std::nullopt;
+    // The sparse steps are noisier and may overshoot on the way; where the
+    // fit ends is held to max_shift_px.
+    const double reach = sparse_phase ? 2 * options.max_shift_px : options.max_shift_px;
+    if ((fit.warp.centre - start.centre).norm() > reach || !(gain > 0.2 && gain < 5)) return std::nullopt;
     last_step_px = delta.head<2>().norm();
+    if (sparse_phase) {
+      // Sparse steps are cheap and do not use up the fit's iterations.
+      if (--sparse_left == 0 && !(last_step_px < options.sparse_until_px)) return std::nullopt;
+      sparse_phase = !(last_step_px < options.sparse_until_px);
+      continue;
+    }
     if (last_step_px < options.converged_px) {
       converged = true;
       break;

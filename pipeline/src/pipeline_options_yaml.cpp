@@ -128,6 +128,7 @@ void ReadRefinement(YamlFields f, PatchRefinementOptions* o) {
   f.Read("max_iterations", &o->max_iterations);
   f.Read("converged_px", &o->converged_px);
   f.Read("converged_sigma_fraction", &o->converged_sigma_fraction);
+  f.Read("sparse_until_px", &o->sparse_until_px);
   f.Read("reference_attempts", &o->reference_attempts);
   f.Read("tilt_retries", &o->tilt_retries);
   f.Read("tilt_step_deg", &o->tilt_step_deg);

@@ -235,6 +235,65 @@ TEST(PatchRefinement, AFitOutOfIterationsCountsWhenItsLastStepIsSmallAgainstItsS
   }
 }
 
+// The first steps on every other pixel (sparse_until_px) must end where
+// the fit on every pixel ends, for a quarter of the work per step: over
+// textures, blurs, noise, warps and starts up to 1.4 px off, both accept the
+// same fits (a sparse start may land a borderline fit either way, so one in
+// twenty may differ), their centres agree to a small part of the sigma
+// (the last steps are the same full-patch steps) and are as far from the
+// truth, and the sparse start, nearer the minimum, leaves no more
+// full-patch steps to take. (What it saves is the steps of the fits that
+// are refused: the triangulation's time in docs/features.md.)
+TEST(PatchRefinement, SparseFirstStepsEndWhereEveryPixelFitsEnd) {
+  const std::vector<Case> cases = {
+      {3, 0.7, 2, 0, 1, 0, 1, 0},
+      {3, 0.5, 2, 10, 1, 0, 1, 0},
+      {3, 1.0, 2, -5, 0.8, 0, 1, 0},
+      {5, 1.5, 2, 0, 1.2, 0.1, 1, 0},
+      {2, 0.7, 2, 3, 0.9, -0.08, 0.6, 30},
+      {4, 1.0, 5, 8, 1.1, 0.05, 0.85, 25},
+  };
+  PatchRefinementOptions sparse, every_pixel;
+  ASSERT_GT(sparse.sparse_until_px, 0) << "the default starts sparse";
+  every_pixel.sparse_until_px = 0;
+  int both = 0, differ = 0, sparse_iterations = 0, full_iterations = 0;
+  std::vector<double> apart;  // distance between the two fits / sigma
+  double sparse_sq = 0, full_sq = 0;  // (error against the truth / sigma)^2
+  for (size_t k = 0; k < cases.size(); ++k) {
+    for (unsigned seed = 0; seed < 8; ++seed) {
+      const unsigned s = 1000 + 100 * static_cast<unsigned>(k) + seed;
+      const PatchPair pair = MakePatchPair(cases[k], s, {s + 50, s + 60});
+      const double angle = 0.8 * seed;
+      PatchWarp start;
+      start.centre = pair.target_centre + (0.4 + 0.15 * seed) * Eigen::Vector2d(std::cos(angle), std::sin(angle));
+      Eigen::Matrix2d off;
+      off << 1.04, 0.03, -0.02, 0.97;
+      start.affine = pair.affine * off;
+      const auto a = RefinePatch(pair.reference, pair.ref_centre, pair.target, start, sparse);
+      const auto b = RefinePatch(pair.reference, pair.ref_centre, pair.target, start, every_pixel);
+      if (a.has_value() != b.has_value()) ++differ;
+      if (!a || !b) continue;
+      ++both;
+      sparse_iterations += a->iterations;
+      full_iterations += b->iterations;
+      apart.push_back((a->warp.centre - b->warp.centre).norm() / b->sigma_px);
+      sparse_sq += std::pow((a->warp.centre - pair.target_centre).norm() / a->sigma_px, 2);
+      full_sq += std::pow((b->warp.centre - pair.target_centre).norm() / b->sigma_px, 2);
+    }
+  }
+  ASSERT_GE(both, 36);  // of 48
+  std::sort(apart.begin(), apart.end());
+  const double error_ratio = std::sqrt(sparse_sq / full_sq);
+  std::cout << both << " fits by both, " << differ << " by one; apart " << apart[apart.size() / 2] << " sigma median, "
+            << apart.back() << " worst; error / sigma against every pixel's " << error_ratio << "; full-patch steps "
+            << sparse_iterations << " against " << full_iterations << "\n";
+  EXPECT_LE(differ, 2);
+  EXPECT_LT(apart[apart.size() / 2], 0.1);
+  EXPECT_LT(apart.back(), 0.5);
+  EXPECT_NEAR(error_ratio, 1.0, 0.05);
+  EXPECT_LE(sparse_iterations, full_iterations);
+}
+
 // A patch of another texture is refused (correlation), as is a flat patch
 // (the centre is not located: its predicted sigma is large).
 TEST(PatchRefinement, RefusesWrongAndFlatPatches) {

@@ -29,6 +29,12 @@ struct PatchRefinementOptions {
   // about a minimum its noise leaves uncertain by tenths, and never
   // reaches converged_px (docs/features.md). 0: converged_px alone.
   double converged_sigma_fraction = 0.25;
+  // The fit steps on every other pixel of every other row (a quarter of
+  // the work, the same reach) until a step is shorter than this, then on
+  // every pixel; those first steps do not use up max_iterations. Most of
+  // the fits a triangulation tries are refused, and they are refused
+  // within a few such steps (docs/features.md). 0: every pixel throughout.
+  double sparse_until_px = 0.1;
   // Furthest the fitted centre may move from where it started: beyond, the
   // match was wrong or the fit ran off along an edge.
   double max_shift_px = 2.0;
@@ -91,7 +97,7 @@ struct PatchFit {
   PatchWarp warp;
   double correlation = 0;  // normalised cross-correlation at the fit
   double sigma_px = 0;     // predicted standard deviation of warp.centre: worse axis, or along the line
-  int iterations = 0;
+  int iterations = 0;      // steps on every pixel (sparse_until_px's steps not counted)
 };
 
 // Fits the patch of `reference` (8-bit grey) round `reference_pixel` into
