@@ -19,9 +19,11 @@ struct PatchRefinementOptions {
   int half_window = 7;     // the patch is (2 h + 1)^2 reference pixels
   int max_iterations = 12;
   // Stop when the centre moves less than this: the fit's steps shrink 3-4x
-  // an iteration, so what is left is ~0.003 px, a tenth of a good fit's
-  // own sigma (docs/features.md: 0.005 cost 10 % more fit time, same points).
-  double converged_px = 0.01;
+  // an iteration, so what is left is ~0.006 px, a fifth of a good fit's
+  // own sigma and a sixteenth of the 0.1 px the triangulation weighs a fit
+  // at least (docs/features.md: 0.01 took 10-15 % more fit time for fewer
+  // points, 0.03 lost accuracy on the dim walk).
+  double converged_px = 0.02;
   // A fit out of iterations still counts when its last step was under this
   // fraction of its own sigma (the classical adjustment's rule: corrections
   // below their precision), the step then added to that sigma. On a noisy
