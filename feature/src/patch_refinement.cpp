@@ -96,20 +96,35 @@ struct PatchBuffers {
   Eigen::Matrix<double, Eigen::Dynamic, 8> jacobian;
   Eigen::VectorXd residual;
 
-  // The reference patch round `centre`: the (2 h + 1)^2 pixels, or with
-  // `step` 2 every other pixel of every other row over the same extent.
-  void SampleTemplate(const cv::Mat& reference, const Eigen::Vector2d& centre, int h, int step = 1) {
-    const int side = 2 * h / step + 1;
-    const size_t n = static_cast<size_t>(side * side);
+  void Resize(size_t n) {
     offsets.resize(n);
     templ.resize(n);
     warped.resize(n);
     jacobian.resize(static_cast<Eigen::Index>(n), 8);
     residual.resize(static_cast<Eigen::Index>(n));
-    for (int dy = -h, i = 0; dy <= h; dy += step) {
-      for (int dx = -h; dx <= h; dx += step, ++i) {
+  }
+
+  // The reference patch, (2 h + 1)^2 pixels round `centre`.
+  void SampleTemplate(const cv::Mat& reference, const Eigen::Vector2d& centre, int h) {
+    Resize(static_cast<size_t>((2 * h + 1) * (2 * h + 1)));
+    for (int dy = -h, i = 0; dy <= h; ++dy) {
+      for (int dx = -h; dx <= h; ++dx, ++i) {
         offsets[static_cast<size_t>(i)] = Eigen::Vector2d(dx, dy);
         templ[static_cast<size_t>(i)] = Sample(reference, centre.x() + dx, centre.y() + dy);
+      }
+    }
+  }
+
+  // Every other pixel of every other row of `full`'s patch (half window h),
+  // over the same extent.
+  void SubsampleTemplate(const PatchBuffers& full, int h) {
+    const int side = h + 1, full_side = 2 * h + 1;
+    Resize(static_cast<size_t>(side * side));
+    for (int r = 0, i = 0; r < side; ++r) {
+      for (int c = 0; c < side; ++c, ++i) {
+        const size_t from = static_cast<size_t>(2 * r * full_side + 2 * c);
+        offsets[static_cast<size_t>(i)] = full.offsets[from];
+        templ[static_cast<size_t>(i)] = full.templ[from];
       }
     }
   }
@@ -201,7 +216,7 @@ std::optional<PatchFit> RefinePatch(const cv::Mat& reference, const Eigen::Vecto
   // which locate the patch and give its sigma, on every pixel. Below a half
   // window of 4 the sparse samples would barely outnumber the 8 parameters.
   bool sparse_phase = options.sparse_until_px > 0 && h >= 4;
-  if (sparse_phase) sparse.SampleTemplate(reference, reference_pixel, h, 2);
+  if (sparse_phase) sparse.SubsampleTemplate(patch, h);
   PatchFit fit;
   fit.warp = start;
   double gain = 1, offset = 0;
