@@ -224,7 +224,7 @@ std::optional<PatchFit> RefinePatch(const cv::Mat& reference, const Eigen::Vecto
   bool converged = false;
   double last_step_px = 0;
   int sparse_left = sparse_phase ? options.max_iterations : 0;
-  for (fit.iterations = 1; fit.iterations <= options.max_iterations; fit.iterations += sparse_phase ? 0 : 1) {
+  for (fit.iterations = 1; fit.iterations <= options.max_iterations;) {
     PatchBuffers& used = sparse_phase ? sparse : patch;
     if (!used.Linearise(target, fit.warp, gain, offset)) return std::nullopt;
     normal = used.NormalMatrix();
@@ -252,15 +252,18 @@ std::optional<PatchFit> RefinePatch(const cv::Mat& reference, const Eigen::Vecto
     if ((fit.warp.centre - start.centre).norm() > reach || !(gain > 0.2 && gain < 5)) return std::nullopt;
     last_step_px = delta.head<2>().norm();
     if (sparse_phase) {
-      // Sparse steps are cheap and do not use up the fit's iterations.
+      // Sparse steps are cheap and do not use up the fit's iterations, but
+      // for the one that ends them, which counts as the first.
       if (--sparse_left == 0 && !(last_step_px < options.sparse_until_px)) return std::nullopt;
       sparse_phase = !(last_step_px < options.sparse_until_px);
+      if (!sparse_phase) ++fit.iterations;
       continue;
     }
     if (last_step_px < options.converged_px) {
       converged = true;
       break;
     }
+    ++fit.iterations;
   }
   fit.sigma_px = line ? patch.LineSigmaPx(normal, line->direction, line->across_sigma_px) : patch.CentreSigmaPx(normal);
   if (!converged) {

@@ -241,8 +241,9 @@ TEST(PatchRefinement, AFitOutOfIterationsCountsWhenItsLastStepIsSmallAgainstItsS
 // same fits (a sparse start may land a borderline fit either way, so one in
 // twenty may differ), their centres agree to a small part of the sigma
 // (the last steps are the same full-patch steps) and are as far from the
-// truth, and the sparse start, nearer the minimum, leaves no more
-// full-patch steps to take. (What it saves is the steps of the fits that
+// truth, and the sparse start, nearer the minimum, leaves no more counted
+// steps to take (the full-patch ones and the sparse one that ends the
+// sparse steps). (What it saves is the steps of the fits that
 // are refused: the triangulation's time in docs/features.md.)
 TEST(PatchRefinement, SparseFirstStepsEndWhereEveryPixelFitsEnd) {
   const std::vector<Case> cases = {
@@ -285,7 +286,7 @@ TEST(PatchRefinement, SparseFirstStepsEndWhereEveryPixelFitsEnd) {
   std::sort(apart.begin(), apart.end());
   const double error_ratio = std::sqrt(sparse_sq / full_sq);
   std::cout << both << " fits by both, " << differ << " by one; apart " << apart[apart.size() / 2] << " sigma median, "
-            << apart.back() << " worst; error / sigma against every pixel's " << error_ratio << "; full-patch steps "
+            << apart.back() << " worst; error / sigma against every pixel's " << error_ratio << "; counted steps "
             << sparse_iterations << " against " << full_iterations << "\n";
   EXPECT_LE(differ, 2);
   EXPECT_LT(apart[apart.size() / 2], 0.1);

@@ -33,7 +33,8 @@ struct PatchRefinementOptions {
   double converged_sigma_fraction = 0.25;
   // The fit steps on every other pixel of every other row (a quarter of
   // the work, the same reach) until a step is shorter than this, then on
-  // every pixel; those first steps do not use up max_iterations. Most of
+  // every pixel; of those first steps only the one that ends them counts
+  // against max_iterations. Most of
   // the fits a triangulation tries are refused, and they are refused
   // within a few such steps (docs/features.md). 0: every pixel throughout.
   double sparse_until_px = 0.1;
@@ -99,7 +100,7 @@ struct PatchFit {
   PatchWarp warp;
   double correlation = 0;  // normalised cross-correlation at the fit
   double sigma_px = 0;     // predicted standard deviation of warp.centre: worse axis, or along the line
-  int iterations = 0;      // steps on every pixel (sparse_until_px's steps not counted)
+  int iterations = 0;      // steps on every pixel, and the sparse step that ended sparse_until_px's
 };
 
 // Fits the patch of `reference` (8-bit grey) round `reference_pixel` into
