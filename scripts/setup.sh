@@ -7,6 +7,7 @@ set -euo pipefail
 PACKAGES=(
   build-essential cmake pkg-config git ccache ninja-build
   libopencv-dev libopencv-contrib-dev
+  libpng-dev       # recorded frames written with a chosen PNG filter (capture/png_encoding.h)
   libeigen3-dev libceres-dev
   libapriltag-dev
   libv4l-dev libcamera-dev

@@ -7,8 +7,7 @@
 #include <cstdio>
 #include <cstring>
 
-#include <opencv2/imgcodecs.hpp>
-
+#include "tagsfm/capture/png_encoding.h"
 #include "tagsfm/core/file_util.h"
 
 namespace tagsfm {
@@ -72,13 +71,14 @@ Result<std::filesystem::path> RecordingWriter::Append(const Frame& frame) {
   if (frame.image.empty()) return MakeError(dir_.string() + ": frame " + std::to_string(frame.index) + " has no image");
   char name[64];
   std::snprintf(name, sizeof name, "frames/%06lld.png", static_cast<long long>(frame.index));
-  std::vector<unsigned char> png;
-  // Fast zlib level: recording must keep up with the camera; PNG stays lossless.
-  const std::vector<int> params{cv::IMWRITE_PNG_COMPRESSION, 1};
-  if (!cv::imencode(".png", frame.image, png, params)) {
-    return MakeError(dir_.string() + ": frame " + std::to_string(frame.index) + " cannot be encoded as PNG");
+  // Lossless, and fast to write and to read back (png_encoding.h): the
+  // recording must keep up with the camera, the replay run faster than it.
+  Result<std::vector<unsigned char>> png = EncodePng(frame.image);
+  if (!png) {
+    return MakeError(dir_.string() + ": frame " + std::to_string(frame.index) + " cannot be recorded (" +
+                     png.error().message + ")");
   }
-  if (Status s = WriteFileAtomically(dir_ / name, png); !s) return s.error();
+  if (Status s = WriteFileAtomically(dir_ / name, *png); !s) return s.error();
   SyncDirectory(dir_ / "frames");
   // The row goes in only once its image is in place, in one write() so a
   // crash leaves at most one partial last row, which the reader skips.
