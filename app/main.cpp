@@ -6,8 +6,10 @@
 #include <CLI/CLI.hpp>
 
 #include "command_registry.h"
+#include "tagsfm/core/heap_reuse.h"
 
 int main(int argc, char** argv) {
+  tagsfm::KeepLargeBlocksForReuse();
   CLI::App app{"tagsfm: metric 3D reconstruction from AprilTag targets and natural features"};
   app.require_subcommand(1);
   app.set_version_flag("--version", "tagsfm 0.1.0");

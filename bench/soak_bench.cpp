@@ -20,6 +20,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "tagsfm/core/heap_reuse.h"
 #include "tagsfm/pipeline/drivers.h"
 #include "tagsfm/pipeline/target_map.h"
 
@@ -132,6 +133,7 @@ int RunSoak(const SoakArgs& args) {
 }  // namespace tagsfm
 
 int main(int argc, char** argv) {
+  tagsfm::KeepLargeBlocksForReuse();  // as the tagsfm executable, whose daemon this measures
   tagsfm::SoakArgs args;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
