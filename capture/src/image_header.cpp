@@ -56,7 +56,10 @@ std::optional<EncodedSize> JpegSize(const std::uint8_t* data, size_t size) {
 }
 
 // PGM/PPM (P2, P3, P5, P6): the magic, then width and height as decimal
-// text, separated by white space and # comments.
+// text, separated by white space and # comments, read as OpenCV's PxM
+// decoder reads them, since it is the one that allocates: the byte that
+// ends a number is consumed whatever it is, so in "599999#1269\n" the '#'
+// opens no comment and the height is 1269; a comment ends at '\n' or '\r'.
 std::optional<EncodedSize> PnmSize(const std::uint8_t* data, size_t size) {
   // The magic and a white space, as OpenCV's PxM decoder checks.
   if (size < 3 || data[0] != 'P' || !(data[1] == '2' || data[1] == '3' || data[1] == '5' || data[1] == '6') ||
@@ -69,7 +72,7 @@ std::optional<EncodedSize> PnmSize(const std::uint8_t* data, size_t size) {
     for (;;) {  // white space and comments
       if (at >= size) return std::nullopt;
       if (data[at] == '#') {
-        while (at < size && data[at] != '\n') ++at;
+        while (at < size && data[at] != '\n' && data[at] != '\r') ++at;
       } else if (data[at] == ' ' || data[at] == '\t' || data[at] == '\r' || data[at] == '\n') {
         ++at;
       } else {
@@ -79,6 +82,7 @@ std::optional<EncodedSize> PnmSize(const std::uint8_t* data, size_t size) {
     int digits = 0;
     for (; at < size && data[at] >= '0' && data[at] <= '9' && digits < 12; ++at, ++digits) value = 10 * value + (data[at] - '0');
     if (digits == 0) return std::nullopt;
+    ++at;  // the number's terminator
   }
   return EncodedSize{values[0], values[1]};
 }

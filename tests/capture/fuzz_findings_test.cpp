@@ -94,6 +94,24 @@ TEST(FuzzFindings, AnImageWhoseHeaderClaimsAGigapixelIsRefusedBeforeDecoding) {
       << sides_frame.error().message;
 }
 
+TEST(FuzzFindings, APpmWhoseWidthEndsInAHashIsSizedAsOpenCvReadsIt) {
+  // image_decode_fuzz (2026-12-07): "P6\n599999#1269\n9(99". The header
+  // check took '#' for a comment and the height for 9 (5.4 Mpx, allowed);
+  // OpenCV's PxM decoder consumes the byte that ends a number, reads the
+  // height 1269 and allocated 2.28 GB. The check now reads as OpenCV does.
+  TempDir tmp;
+  WriteFile(tmp.path() / "frame.ppm", "P6\n599999#1269\n9(99");
+  auto frame = LoadImageFrame(tmp.path() / "frame.ppm", 4, 0);
+  ASSERT_FALSE(frame.has_value());
+  EXPECT_NE(frame.error().message.find("claims 599999x1269 pixels"), std::string::npos) << frame.error().message;
+  // A comment after white space is still a comment, and one ended by '\r'.
+  WriteFile(tmp.path() / "frame.pgm", "P5 #c\r2 # a comment\n1 255\n" + std::string("\x10\x20", 2));
+  auto pgm = LoadImageFrame(tmp.path() / "frame.pgm", 0, 0);
+  ASSERT_TRUE(pgm.has_value()) << pgm.error().message;
+  EXPECT_EQ(pgm->gray.cols, 2);
+  EXPECT_EQ(pgm->gray.at<std::uint8_t>(0, 1), 0x20);
+}
+
 TEST(FuzzFindings, AJpegLookalikeWithADicomSignatureIsRefusedNotDecoded) {
   // image_decode_fuzz (2026-12-05): FF D8 00 (not a JPEG to OpenCV, which
   // wants FF D8 FF) with "DICM" at byte 128. The header walk took it for a
