@@ -57,7 +57,7 @@ TEST(PngEncoding, EveryTypeReadsBackToTheSamePixels) {
 
 // The Up filter under zlib's run-length strategy is chosen for speed; it
 // must not cost disk: on camera-like frames it is no larger than OpenCV's
-// own writer at the same level (measured 7-14 % smaller, docs/capture.md).
+// own writer at the same level (measured 2-13 % smaller, docs/capture.md).
 TEST(PngEncoding, NoLargerThanOpenCvsWriterOnCameraLikeFrames) {
   for (const std::uint64_t seed : {1u, 2u, 3u}) {
     const cv::Mat image = CameraLikeFrame(CV_8UC1, 360, 640, seed);
