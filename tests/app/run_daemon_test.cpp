@@ -11,6 +11,7 @@
 #include <fstream>
 #include <future>
 #include <sstream>
+#include <string>
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
@@ -29,13 +30,37 @@ using testing::ReadText;
 using testing::RunCommand;
 using testing::TempDir;
 
+#if defined(__SANITIZE_THREAD__) || defined(__SANITIZE_ADDRESS__)
+constexpr bool kUnderSanitizer = true;
+#elif defined(__has_feature)
+#if __has_feature(thread_sanitizer) || __has_feature(address_sanitizer)
+constexpr bool kUnderSanitizer = true;
+#else
+constexpr bool kUnderSanitizer = false;
+#endif
+#else
+constexpr bool kUnderSanitizer = false;
+#endif
+
+// The pipeline block of the daemon's config, which the replay reads too.
+// Under a sanitizer the features are extracted from images of at most 320
+// px: the same threads meet (capture, tags, the feature worker, the
+// dashboard, the end's parallel fits) on a quarter of the pixels, and the
+// test takes a third of the time (docs/reliability.md). The Release run
+// keeps the defaults, and the sanitizer run has them in the bundled
+// recordings' run/replay comparison (tests/app/pipeline_paths_test.cpp).
+std::string PipelineBlock() {
+  return kUnderSanitizer ? "pipeline:\n  features:\n    max_feature_image_side: 320\n" : "";
+}
+
 TEST(RunDaemon, RecordsEveryFrameAndGivesTheSameResultAsAReplay) {
   const auto source = testing::RecordingsDir() / "box_small";
   if (!std::filesystem::exists(source)) GTEST_SKIP() << "recordings/box_small is missing";
   TempDir tmp;
   const auto config = tmp.path() / "run.yaml";
   std::ofstream(config) << "capture:\n  source: file:" << source.string() << "\n  exposure_us: 1000\n"
-                        << "run:\n  record_dir: " << (tmp.path() / "live").string() << "\n  dashboard: 127.0.0.1:0\n";
+                        << "run:\n  record_dir: " << (tmp.path() / "live").string() << "\n  dashboard: 127.0.0.1:0\n"
+                        << PipelineBlock();
   ASSERT_EQ(RunCommand(testing::TagsfmExe().string() + " run --config " + config.string(), tmp.path() / "run.log"), 0)
       << ReadText(tmp.path() / "run.log");
 
@@ -55,7 +80,7 @@ TEST(RunDaemon, RecordsEveryFrameAndGivesTheSameResultAsAReplay) {
   // Offline replay of what the daemon recorded gives the daemon's result.
   const auto replay_out = tmp.path() / "replay";
   ASSERT_EQ(RunCommand(testing::TagsfmExe().string() + " replay " + (tmp.path() / "live").string() + " --out " +
-                    replay_out.string(),
+                    replay_out.string() + " --config " + config.string(),
                 tmp.path() / "replay.log"),
             0)
       << ReadText(tmp.path() / "replay.log");
@@ -196,7 +221,8 @@ TEST(RunDaemonSystemd, SendsReadyWatchdogAndOneLineStatus) {
   ASSERT_TRUE(socket.bound());
   const auto config = tmp.path() / "run.yaml";
   std::ofstream(config) << "capture:\n  source: file:" << source.string() << "?rate=realtime\n  exposure_us: 1000\n"
-                        << "run:\n  record_dir: " << (tmp.path() / "live").string() << "\n  dashboard: 127.0.0.1:0\n";
+                        << "run:\n  record_dir: " << (tmp.path() / "live").string() << "\n  dashboard: 127.0.0.1:0\n"
+                        << PipelineBlock();
   // WATCHDOG_USEC as systemd sets it for WatchdogSec=0.9 s: pings every 0.3 s.
   constexpr double kWatchdogS = 0.9;
   auto run = std::async(std::launch::async, [&] {
