@@ -46,9 +46,9 @@ constexpr bool kUnderSanitizer = false;
 // Under a sanitizer the features are extracted from images of at most 320
 // px: the same threads meet (capture, tags, the feature worker, the
 // dashboard, the end's parallel fits) on a quarter of the pixels, and the
-// test takes a third of the time (docs/reliability.md). The Release run
-// keeps the defaults, and the sanitizer run has them in the bundled
-// recordings' run/replay comparison (tests/app/pipeline_paths_test.cpp).
+// tests take a quarter of the time or less (docs/reliability.md). The
+// Release run keeps the defaults, and the sanitizer run has them in the
+// bundled recordings' run/replay comparison (tests/app/pipeline_paths_test.cpp).
 std::string PipelineBlock() {
   return kUnderSanitizer ? "pipeline:\n  features:\n    max_feature_image_side: 320\n" : "";
 }
